@@ -1,0 +1,17 @@
+// PNG output for debug images (libpng).
+#pragma once
+
+#include <string>
+
+#include "pipeline/image.h"
+#include "pipeline/status.h"
+
+namespace vpr {
+
+Status write_png(const std::string& path, const GrayImage& image);
+// Masks are written as 0 -> black, nonzero -> white.
+Status write_mask_png(const std::string& path, const Mask& mask);
+// 8-bit RGB, width * height * 3 bytes, row 0 at the top.
+Status write_rgb_png(const std::string& path, int width, int height, const uint8_t* rgb);
+
+}  // namespace vpr

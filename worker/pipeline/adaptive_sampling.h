@@ -1,0 +1,50 @@
+// Stage 5 (Section IV-B, Eq. 7-16): adaptive sampling of the target count.
+//   visual quantity per triangle (Eq. 7-8) -> integer counts whose quantization
+//   error is carried forward so they sum exactly to the target (Eq. 9) ->
+//   uniform sampling for n_i < 5, inverse-CDF sampling of the linearly
+//   interpolated importance otherwise (Eq. 11-16).
+// Random numbers: Philox keyed by (seed, triangle), counter = sample index.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "exec_context.h"
+#include "mesh.h"
+#include "status.h"
+
+namespace vpr {
+
+struct SamplingOptions {
+  uint64_t seed = 1;
+  uint32_t adaptive_min_samples = 5;  // Section IV-B: n_i < 5 -> uniform sampling
+};
+
+// Inverse CDFs of the adaptive sampler, exposed for tests and the GPU twin.
+// A triangle (A, B, C) with importances (ia, ib, ic) is swept by s in [0, 1]
+// from A to the edge BC; t in [0, 1] runs along the slice from AB to AC.
+// Eq. (14): solve the cubic marginal CDF G(s) = r G(1).
+float adaptive_s(float r, float ia, float ib, float ic);
+// Eq. (16): solve the quadratic conditional CDF H(t | s) = r H(1 | s).
+float adaptive_t(float r, float s, float ia, float ib, float ic);
+
+namespace cpu {
+
+// Eq. (7-8): q_i = area_i * (I_a + I_b + I_c) / 3 (#F doubles).
+Status visual_quantity(const Mesh& mesh, const float* importance, std::vector<double>* quantity,
+                       const ExecContext& ctx);
+
+// Eq. (9): counts (#F) that sum exactly to target; offsets (#F + 1) is their
+// exclusive prefix sum. n_i = round(S_{i+1}) - round(S_i) with S the scaled
+// prefix sum of q, which is the sequential error diffusion in closed form.
+Status distribute_counts(const double* quantity, size_t face_count, uint32_t target,
+                         std::vector<uint32_t>* counts, std::vector<uint32_t>* offsets, const ExecContext& ctx);
+
+// Eq. (11-16): writes offsets[F] points (3 floats each) and their interpolated
+// importance; sample j of face f is stored at offsets[f] + j.
+Status sample_triangles(const Mesh& mesh, const float* importance, const uint32_t* counts,
+                        const uint32_t* offsets, const SamplingOptions& options, std::vector<float>* points,
+                        std::vector<float>* point_importance, const ExecContext& ctx);
+
+}  // namespace cpu
+}  // namespace vpr

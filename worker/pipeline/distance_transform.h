@@ -1,0 +1,16 @@
+// Distance transform (Eq. 4). The CPU twin is the exact linear-time Euclidean
+// distance transform of Felzenszwalb and Huttenlocher (2012), rows and columns
+// in parallel; the GPU twin may use another parallel exact method.
+#pragma once
+
+#include "exec_context.h"
+#include "image.h"
+#include "status.h"
+
+namespace vpr::cpu {
+
+// dist(x, y) = Euclidean distance in pixels from (x, y) to the nearest pixel with
+// seeds != 0. With no seed at all, every pixel gets +infinity.
+Status distance_transform(const Mask& seeds, FloatImage* dist, const ExecContext& ctx);
+
+}  // namespace vpr::cpu

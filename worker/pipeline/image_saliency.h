@@ -1,0 +1,43 @@
+// Stage 2 (Section III-A, III-B): image-space saliency of one snapshot.
+//   gray -> 7x7 median pre-filter -> inner features (Eq. 1-3) minus silhouette
+//   pixels; coverage -> silhouette -> distance map (Eq. 4) -> skeleton by four
+//   directional kernels (Eq. 5) -> distance map from the skeleton -> silhouette
+//   pixels whose feature size is under the threshold ("thin features").
+// The filters themselves live in median_filter.h, inner_feature.h,
+// distance_transform.h and silhouette_feature.h.
+#pragma once
+
+#include "exec_context.h"
+#include "image.h"
+#include "snapshot.h"
+#include "status.h"
+
+namespace vpr {
+
+struct ImageSaliencyOptions {
+  int median_size = 7;           // median pre-filter window (Section III-A)
+  int gaussian_size = 11;        // Eq. (1): n x n Gaussian window, n = 11
+  float gaussian_sigma = 2.0f;   // Eq. (1): sigma of the Gaussian weights
+  int threshold_c = 3;           // Eq. (3): a pixel is a feature when T > P, T = mean - C
+  int skeleton_lambda = 8;       // Eq. (5): lambda of the directional skeleton kernels
+  float thin_feature_px = 20.f;  // feature size threshold at 512 px; scaled by resolution / 512
+};
+
+struct FeatureImages {
+  GrayImage filtered;   // median-filtered gray image
+  Mask foreground;      // coverage after the same median (majority) filter
+  Mask silhouette;      // foreground pixels with a background 4-neighbour
+  Mask inner;           // inner features (Eq. 1-3), silhouette pixels removed
+  FloatImage silhouette_distance;  // Eq. (4): distance of foreground pixels to the silhouette
+  Mask skeleton;        // Eq. (5)
+  Mask thin;            // silhouette pixels of thin features
+  Mask features;        // inner | thin: the pixels that become saliency points
+};
+
+namespace cpu {
+
+Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& options, FeatureImages* out,
+                       const ExecContext& ctx);
+
+}  // namespace cpu
+}  // namespace vpr

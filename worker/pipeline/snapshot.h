@@ -1,0 +1,40 @@
+// Stage 1 (Section III): render a gray shaded image and a depth buffer per view
+// with OpenGL, headless: EGL's device platform (NVIDIA GPUs and Mesa's software
+// device alike) or OSMesa.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "image.h"
+#include "mesh.h"
+#include "status.h"
+#include "views.h"
+
+namespace vpr {
+
+enum class RendererKind { kAuto, kEgl, kOsmesa };
+
+StatusOr<RendererKind> parse_renderer_kind(const std::string& name);  // "auto", "egl", "osmesa"
+
+struct Snapshot {
+  GrayImage gray;    // shaded intensity, background 0; row 0 at the top
+  FloatImage depth;  // window-space depth in [0, 1]; 1 where no surface was drawn
+  Mask coverage;     // 1 where a surface was drawn
+};
+
+class Renderer {
+ public:
+  virtual ~Renderer() = default;
+  // "egl (NVIDIA H100)", "egl (llvmpipe)", "osmesa (llvmpipe)": what actually renders.
+  virtual std::string description() const = 0;
+  // Renders every view of the mesh; out receives one Snapshot per view.
+  virtual Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out) = 0;
+};
+
+// kAuto tries EGL first and falls back to OSMesa. The error names every
+// backend tried and why it failed.
+StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind);
+
+}  // namespace vpr
