@@ -8,20 +8,25 @@
 namespace vpr {
 
 struct MeshQuality {
-  size_t vertices = 0;
-  size_t faces = 0;
-  double min_angle_deg = 0;          // smallest interior angle over non-degenerate faces
-  double share_angles_below_30 = 0;  // fraction of interior angles under 30 degrees
-  size_t degenerate_faces = 0;       // zero-area faces
+  size_t vertices = 0;               // mesh.vertex_count(), referenced or not
+  size_t faces = 0;                  // mesh.face_count(), invalid ones included
+  double min_angle_deg = 0;          // smallest interior angle over non-degenerate faces (0 if none)
+  double share_angles_below_30 = 0;  // fraction of interior angles of non-degenerate faces under 30 degrees
+  size_t degenerate_faces = 0;       // zero area in double arithmetic (repeated or collinear corners)
+  size_t invalid_faces = 0;          // index out of range or non-finite corner; ignored everywhere else
   size_t non_manifold_edges = 0;     // edges with more than two incident faces
   size_t non_manifold_vertices = 0;  // vertices whose incident faces form more than one fan
-  size_t boundary_edges = 0;
-  size_t boundary_loops = 0;
-  size_t components = 0;             // connected by shared vertices
-  bool closed = false;               // no boundary edge and no non-manifold edge
-  long euler_characteristic = 0;     // V - E + F
+  size_t boundary_edges = 0;         // edges with exactly one incident face
+  size_t boundary_loops = 0;         // connected components of the boundary-edge graph
+  size_t components = 0;             // faces connected by shared vertices
+  bool closed = false;               // at least one face, no boundary edge and no non-manifold edge
+  long euler_characteristic = 0;     // V - E + F, V = vertices referenced by a valid face
 };
 
+// Works on any soup: duplicated faces count as extra incidences of their edges
+// (so a doubled face makes non-manifold edges), a face repeating a vertex index
+// contributes its one or two distinct edges. Topology counts include degenerate
+// faces; angle statistics skip them.
 MeshQuality mesh_quality(const Mesh& mesh);
 
 }  // namespace vpr

@@ -12,14 +12,24 @@ namespace vpr::cpu {
 Status silhouette_pixels(const Mask& foreground, Mask* silhouette, const ExecContext& ctx);
 
 // Eq. (5): four directional kernels (0, 45, 90, 135 degrees) over the distance
-// map; lambda sets the kernel reach. A foreground pixel is on the skeleton when
-// it is a ridge of the distance map across one of the four directions.
+// map; lambda (even, >= 2) sets the kernel reach, lambda / 2 pixels each way. A
+// foreground pixel is on the skeleton when its distance is >= 2 and it is a
+// ridge of the distance map across one of the four directions (response >= 0.5
+// of an ideal ridge; see skeleton_response_at in image_kernels.h).
+// silhouette_distance: Eq. (4), the distance transform seeded by the silhouette.
 Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, int lambda, Mask* skeleton,
                 const ExecContext& ctx);
 
-// Silhouette pixels whose feature size (distance to the nearest skeleton pixel)
-// is below threshold_px.
-Status thin_features(const Mask& silhouette, const Mask& skeleton, float threshold_px, Mask* thin,
+// Silhouette pixels whose feature size is below threshold_px (pixels). The
+// feature size is the distance to the nearest skeleton pixel, with two cases
+// the skeleton cannot see:
+//  - parts thinner than about 5 px have no pixel with distance >= 2, hence no
+//    skeleton: their silhouette pixels, farther than 3 px from any foreground
+//    pixel with distance >= 2, are thin (when threshold_px > 2);
+//  - with no skeleton pixel at all, every silhouette pixel is thin when the
+//    largest distance over the foreground is below threshold_px.
+Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask& skeleton,
+                     const FloatImage& silhouette_distance, float threshold_px, Mask* thin,
                      const ExecContext& ctx);
 
 }  // namespace vpr::cpu

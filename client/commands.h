@@ -1,0 +1,16 @@
+// Subcommands of the vpremesh CLI. Each registers its options on the app and
+// returns the function that runs it (an exit code from exit_codes.h).
+#pragma once
+
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+namespace vpr::cli {
+
+using Command = std::function<int()>;
+
+Command add_local_command(CLI::App& app);
+Command add_eval_command(CLI::App& app);
+
+}  // namespace vpr::cli

@@ -1,0 +1,23 @@
+// vpremesh: command-line front end of the remeshing service.
+#include <cstdio>
+
+#include <CLI/CLI.hpp>
+
+#include "commands.h"
+#include "exit_codes.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"vpremesh: visual-perception-guided remeshing"};
+  app.require_subcommand(1);
+  const vpr::cli::Command local = vpr::cli::add_local_command(app);
+  const vpr::cli::Command eval = vpr::cli::add_eval_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : vpr::cli::kExitUsage;
+  }
+  if (app.got_subcommand("local")) return local();
+  if (app.got_subcommand("eval")) return eval();
+  return vpr::cli::kExitUsage;
+}

@@ -1,0 +1,78 @@
+#include "stage_table.h"
+
+#include <cstdio>
+
+namespace vpr::cli {
+namespace {
+
+std::string row(const std::string& name, const std::string& device, double ms) {
+  char line[160];
+  std::snprintf(line, sizeof line, "%-16s %-44.44s %10.1f\n", name.c_str(), device.c_str(), ms);
+  return line;
+}
+
+double deviation_percent(const RunSummary& s) {
+  return s.target_vertices ? 100.0 * (double(s.output_vertices) - s.target_vertices) / s.target_vertices : 0.0;
+}
+
+}  // namespace
+
+std::string format_stage_table(const PipelineResult& result, const RunSummary& s) {
+  std::string out;
+  char header[160];
+  std::snprintf(header, sizeof header, "%-16s %-44s %10s\n", "stage", "device", "ms");
+  out += header;
+  out += row("read", "cpu", s.read_ms);
+  double total = s.read_ms + s.write_ms;
+  for (const StageTiming& t : result.stages) {
+    out += row(t.name, t.device, t.ms);
+    if (!t.note.empty()) out += "                 note: " + t.note + "\n";
+    total += t.ms;
+  }
+  out += row("write", "cpu", s.write_ms);
+  out += row("total", "", total);
+  char footer[256];
+  std::snprintf(footer, sizeof footer,
+                "input %zu vertices, %zu faces -> output %zu vertices, %zu faces (target %u, %+.2f%%); "
+                "%zu saliency points\n",
+                s.input_vertices, s.input_faces, s.output_vertices, s.output_faces, s.target_vertices,
+                deviation_percent(s), result.saliency_points);
+  out += footer;
+  return out;
+}
+
+nlohmann::json report_json(const PipelineResult& result, const RunSummary& s) {
+  nlohmann::json stages = nlohmann::json::array();
+  stages.push_back({{"name", "read"}, {"ms", s.read_ms}, {"device", "cpu"}});
+  double total = s.read_ms + s.write_ms;
+  for (const StageTiming& t : result.stages) {
+    nlohmann::json j = {{"name", t.name}, {"ms", t.ms}, {"device", t.device}};
+    if (!t.note.empty()) j["note"] = t.note;
+    stages.push_back(j);
+    total += t.ms;
+  }
+  stages.push_back({{"name", "write"}, {"ms", s.write_ms}, {"device", "cpu"}});
+  return {
+      {"input", {{"vertices", s.input_vertices}, {"faces", s.input_faces}}},
+      {"output", {{"vertices", s.output_vertices}, {"faces", s.output_faces}}},
+      {"target_vertices", s.target_vertices},
+      {"target_deviation_percent", deviation_percent(s)},
+      {"renderer", result.renderer},
+      {"saliency_points", result.saliency_points},
+      {"stages", stages},
+      {"total_ms", total},
+      {"awlop",
+       {{"h", result.awlop.h},
+        {"iterations", result.awlop.iterations},
+        {"nn_cv_before", result.awlop.nn_cv_before},
+        {"nn_cv_after", result.awlop.nn_cv_after}}},
+      {"meshing",
+       {{"points_in", result.meshing.points_in},
+        {"points_dropped", result.meshing.points_dropped},
+        {"holes_filled", result.meshing.holes_filled},
+        {"holes_left", result.meshing.holes_left},
+        {"vertices_split", result.meshing.vertices_split}}},
+  };
+}
+
+}  // namespace vpr::cli

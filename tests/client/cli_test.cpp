@@ -1,0 +1,133 @@
+// The real `vpremesh` binary: a good run and every kind of bad input, each
+// with its exit code and one clear line.
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "eval/mesh_quality.h"
+#include "io/mesh_io.h"
+
+namespace fs = std::filesystem;
+
+namespace vpr {
+namespace {
+
+struct Run {
+  int code = -1;
+  std::string out;  // stdout and stderr together
+};
+
+Run run_cli(const std::string& args) {
+  const std::string cmd = std::string(VPR_CLI_PATH) + " " + args + " 2>&1";
+  Run r;
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
+  const int status = pclose(pipe);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("vpremesh_cli_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string write(const std::string& name, const std::string& content) const {
+    std::ofstream(path(name), std::ios::binary) << content;
+    return path(name);
+  }
+  fs::path dir_;
+};
+
+TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
+  const std::string out = path("spot.drc");
+  Run r = run_cli("local ../shared/models/spot.obj -o " + out + " --target-vertices 800 --json --field-out " +
+                  path("field.ply") + " --debug-dir " + path("debug"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["input"]["vertices"], 2930);
+  const int v = j["output"]["vertices"];
+  EXPECT_NEAR(v, 800, 16);
+  std::vector<std::string> names;
+  for (const auto& s : j["stages"]) names.push_back(s["name"]);
+  for (const char* stage : {"read", "views", "render", "image_saliency", "unproject", "debug_output",
+                            "saliency_field", "sampling", "awlop", "meshing", "write"})
+    EXPECT_NE(std::find(names.begin(), names.end(), stage), names.end()) << stage;
+
+  auto mesh = read_mesh(out);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  EXPECT_EQ(int(mesh->vertex_count()), v);
+  auto saliency = read_saliency(out);
+  ASSERT_TRUE(saliency.ok());
+  EXPECT_EQ(saliency->size(), mesh->vertex_count());
+  EXPECT_EQ(mesh_quality(*mesh).non_manifold_edges, 0u);
+
+  auto field = read_saliency(path("field.ply"));
+  ASSERT_TRUE(field.ok());
+  EXPECT_EQ(field->size(), 2930u);
+  EXPECT_TRUE(fs::exists(path("debug/view_px_snapshot.png")));
+  EXPECT_TRUE(fs::exists(path("debug/view_mz_skeleton.png")));
+  EXPECT_TRUE(fs::exists(path("debug/view_py_points.ply")));
+}
+
+TEST_F(CliTest, TablePrintsEveryStage) {
+  Run r = run_cli("local ../shared/models/suzanne.obj -o " + path("s.ply") + " --target-vertices 300");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* stage : {"render", "image_saliency", "saliency_field", "awlop", "meshing", "total"})
+    EXPECT_NE(r.out.find(stage), std::string::npos) << r.out;
+}
+
+TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
+  struct Case {
+    std::string args;
+    int code;
+    std::string needle;
+  };
+  const std::string obj_nan = write("nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n");
+  const std::string obj_oob = write("oob.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+  const std::string cloud = write("cloud.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+  const std::string empty = write("empty.off", "");
+  const std::string corrupt = write("corrupt.drc", std::string("DRACO\x02\x02\x01\x01\x00\x00garbage", 21));
+  const std::string good = "../shared/models/spot.obj";
+  const Case cases[] = {
+      {"local " + path("missing.obj") + " -o " + path("o.ply") + " -n 500", 7, "missing.obj"},
+      {"local " + obj_nan + " -o " + path("o.ply") + " -n 500", 3, "non-finite"},
+      {"local " + obj_oob + " -o " + path("o.ply") + " -n 500", 3, "out of range"},
+      {"local " + cloud + " -o " + path("o.ply") + " -n 500", 3, "point cloud"},
+      {"local " + empty + " -o " + path("o.ply") + " -n 500", 3, "empty.off"},
+      {"local " + corrupt + " -o " + path("o.ply") + " -n 500", 3, "corrupt.drc"},
+      {"local " + good + " -o " + path("o.ply") + " -n 5", 3, "[100, 2000000]"},
+      {"local " + good + " -o " + path("o.xyz") + " -n 500", 3, ".xyz"},
+      {"local " + good + " -o " + path("o.ply") + " -n 500 --views 7", 2, "views"},
+      {"local " + good + " -o " + path("o.ply") + " -n 500 --renderer vulkan", 3, "vulkan"},
+  };
+  for (const Case& c : cases) {
+    Run r = run_cli(c.args);
+    EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.out;
+    EXPECT_NE(r.out.find(c.needle), std::string::npos) << c.args << "\n" << r.out;
+  }
+}
+
+TEST_F(CliTest, EvalOfAMeshAgainstItselfIsZero) {
+  Run r = run_cli("eval ../shared/models/spot.obj ../shared/models/spot.obj --json --samples 20000");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_LT(double(j["hausdorff"]["max"]), 1e-9);
+  EXPECT_EQ(j["candidate"]["vertices"], 2930);
+  EXPECT_EQ(j["candidate"]["non_manifold_edges"], 0);
+}
+
+}  // namespace
+}  // namespace vpr

@@ -1,0 +1,173 @@
+// The whole pipeline on the shared scanned models and on synthetic soups.
+#include <algorithm>
+#include <atomic>
+#include <cstdio>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "eval/hausdorff.h"
+#include "eval/mesh_quality.h"
+#include "io/mesh_io.h"
+#include "pipeline/pipeline.h"
+#include "test_meshes.h"
+
+namespace vpr {
+namespace {
+
+// Mean Hausdorff bound, in units of the bounding-box diagonal. A mesh with
+// V vertices spread over area A has spacing l = sqrt(2A / (sqrt3 V)); for the
+// shared models at 3000 vertices l is 1.5-3% of the diagonal, and the chordal
+// error of flat triangles over surfaces with curvature radius >= 2 l is below
+// l^2 / (8 R) ~ l / 16, i.e. 0.1-0.2% of the diagonal. Scans add noise the
+// remesher smooths away, so allow 0.5%.
+constexpr double kMeanHausdorffBound = 0.005;
+constexpr uint32_t kTarget = 3000;
+
+PipelineOptions default_options(uint32_t target) {
+  PipelineOptions o;
+  o.target_vertices = target;
+  return o;
+}
+
+struct ModelCase {
+  const char* file;
+};
+
+class SharedModel : public ::testing::TestWithParam<ModelCase> {};
+
+TEST_P(SharedModel, RemeshesWithinTargetAsAManifoldCloseToTheInput) {
+  const std::string path = std::string("../shared/models/") + GetParam().file;
+  auto input = read_mesh(path);
+  ASSERT_TRUE(input.ok()) << input.status().to_string();
+  auto result = run_pipeline(*input, default_options(kTarget));
+  ASSERT_TRUE(result.ok()) << result.status().to_string();
+  const Mesh& out = result->mesh;
+
+  const double deviation = std::abs(double(out.vertex_count()) - kTarget) / kTarget;
+  EXPECT_LE(deviation, 0.02) << out.vertex_count() << " vertices for a target of " << kTarget;
+
+  const MeshQuality q_out = mesh_quality(out), q_in = mesh_quality(*input);
+  EXPECT_EQ(q_out.non_manifold_edges, 0u);
+  EXPECT_EQ(q_out.non_manifold_vertices, 0u);
+  if (q_in.closed) EXPECT_TRUE(q_out.closed) << q_out.boundary_loops << " boundary loops on a closed input";
+
+  HausdorffOptions ho;
+  ho.samples_per_mesh = 50'000;
+  auto h = hausdorff_distance(*input, out, ho);
+  ASSERT_TRUE(h.ok()) << h.status().to_string();
+  EXPECT_LT(h->mean, kMeanHausdorffBound);
+
+  ASSERT_EQ(result->saliency.size(), out.vertex_count());
+  for (float s : result->saliency) {
+    ASSERT_GE(s, default_options(kTarget).field.min_importance - 1e-6f);
+    ASSERT_LE(s, 1.0f + 1e-6f);
+  }
+  EXPECT_GT(result->saliency_points, 100u);
+  std::printf("%-16s in %7zu v (closed %d) -> %5zu v, mean H %.5f, max H %.5f, min angle %.1f, <30deg %.2f%%, "
+              "%.0f ms\n",
+              GetParam().file, input->vertex_count(), q_in.closed, out.vertex_count(), h->mean, h->max,
+              q_out.min_angle_deg, 100 * q_out.share_angles_below_30, result->total_ms);
+}
+
+INSTANTIATE_TEST_SUITE_P(Models, SharedModel,
+                         ::testing::Values(ModelCase{"horse.ply"}, ModelCase{"kitten.obj"},
+                                           ModelCase{"fandisk.obj"}, ModelCase{"bunny.obj"},
+                                           ModelCase{"beast.obj"}, ModelCase{"teapot.obj"}),
+                         [](const auto& info) {
+                           std::string name = info.param.file;
+                           return name.substr(0, name.find('.'));
+                         });
+
+TEST(Pipeline, SameSeedGivesIdenticalOutputAtOneAndTwoThreads) {
+  auto input = read_mesh("../shared/models/kitten.obj");
+  ASSERT_TRUE(input.ok()) << input.status().to_string();
+  Mesh one, two;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    auto r = run_pipeline(*input, default_options(2000));
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    one = r->mesh;
+  }
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    auto r = run_pipeline(*input, default_options(2000));
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    two = r->mesh;
+  }
+  EXPECT_EQ(one.positions, two.positions);
+  EXPECT_EQ(one.indices, two.indices);
+
+  PipelineOptions other = default_options(2000);
+  other.sampling.seed = 99;
+  auto r = run_pipeline(*input, other);
+  ASSERT_TRUE(r.ok());
+  EXPECT_NE(r->mesh.positions, one.positions);
+}
+
+TEST(Pipeline, PolygonSoupOfASphereGivesAClosedGenusZeroMesh) {
+  // Unweld every face and flip every other one: no connectivity survives.
+  const Mesh sphere = testing::icosphere(4);
+  Mesh soup;
+  for (size_t f = 0; f < sphere.face_count(); ++f) {
+    uint32_t c[3] = {sphere.indices[3 * f], sphere.indices[3 * f + 1], sphere.indices[3 * f + 2]};
+    if (f % 2) std::swap(c[1], c[2]);
+    for (uint32_t v : c) {
+      soup.indices.push_back(uint32_t(soup.vertex_count()));
+      soup.positions.insert(soup.positions.end(), &sphere.positions[3 * v], &sphere.positions[3 * v + 3]);
+    }
+  }
+  auto result = run_pipeline(soup, default_options(1000));
+  ASSERT_TRUE(result.ok()) << result.status().to_string();
+  const MeshQuality q = mesh_quality(result->mesh);
+  EXPECT_TRUE(q.closed);
+  EXPECT_EQ(q.euler_characteristic, 2);
+  EXPECT_EQ(q.components, 1u);
+  EXPECT_NEAR(double(result->mesh.vertex_count()), 1000.0, 20.0);
+}
+
+TEST(Pipeline, RejectsImpossibleTargetsAndOptionsWithTheLimit) {
+  const Mesh sphere = testing::icosphere(2);
+  auto r = run_pipeline(sphere, default_options(5));
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(r.status().message().find("[100, 2000000]"), std::string::npos) << r.status().message();
+
+  PipelineOptions views = default_options(1000);
+  views.views.count = 7;
+  r = run_pipeline(sphere, views);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("6 or 14"), std::string::npos);
+
+  Mesh cloud = sphere;
+  cloud.indices.clear();
+  r = run_pipeline(cloud, default_options(1000));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("point cloud"), std::string::npos);
+}
+
+TEST(Pipeline, StopsAtAStageBoundaryWhenCancelled) {
+  const Mesh sphere = testing::icosphere(3);
+  PipelineOptions o = default_options(500);
+  std::atomic<int> boundaries{0};
+  o.keep_going = [&] { return ++boundaries < 3; };
+  auto r = run_pipeline(sphere, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), StatusCode::kCancelled);
+  EXPECT_EQ(boundaries.load(), 3);
+}
+
+TEST(Pipeline, FourteenViewsFindAtLeastAsManySaliencyPoints) {
+  auto input = read_mesh("../shared/models/spot.obj");
+  ASSERT_TRUE(input.ok()) << input.status().to_string();
+  auto six = run_pipeline(*input, default_options(1000));
+  PipelineOptions o = default_options(1000);
+  o.views.count = 14;
+  auto fourteen = run_pipeline(*input, o);
+  ASSERT_TRUE(six.ok() && fourteen.ok());
+  EXPECT_GT(fourteen->saliency_points, six->saliency_points);
+}
+
+}  // namespace
+}  // namespace vpr

@@ -1,0 +1,48 @@
+// Synthetic shapes for tests (the shared models are real scans; these are
+// shapes whose answers we know).
+#pragma once
+
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include "pipeline/mesh.h"
+
+namespace vpr::testing {
+
+// Icosphere of the given radius: 12 vertices subdivided `levels` times.
+inline Mesh icosphere(int levels, float radius = 1.0f) {
+  const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
+  Mesh m;
+  m.positions = {-1, t, 0, 1, t, 0, -1, -t, 0, 1, -t, 0, 0, -1, t, 0, 1, t,
+                 0, -1, -t, 0, 1, -t, t, 0, -1, t, 0, 1, -t, 0, -1, -t, 0, 1};
+  m.indices = {0, 11, 5, 0, 5,  1, 0, 1, 7, 0, 7,  10, 0, 10, 11, 1, 5, 9, 5, 11, 4,  11, 10, 2,  10, 7, 6, 7, 1, 8,
+               3, 9,  4, 3, 4,  2, 3, 2, 6, 3, 6,  8,  3, 8,  9,  4, 9, 5, 2, 4,  11, 6,  2,  10, 8,  6, 7, 9, 8, 1};
+  for (int l = 0; l < levels; ++l) {
+    std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+    auto midpoint = [&](uint32_t a, uint32_t b) {
+      auto key = std::minmax(a, b);
+      auto it = mid.find(key);
+      if (it != mid.end()) return it->second;
+      const uint32_t id = uint32_t(m.vertex_count());
+      for (int k = 0; k < 3; ++k) m.positions.push_back(0.5f * (m.positions[3 * a + k] + m.positions[3 * b + k]));
+      mid[key] = id;
+      return id;
+    };
+    std::vector<uint32_t> next;
+    for (size_t f = 0; f < m.face_count(); ++f) {
+      const uint32_t a = m.indices[3 * f], b = m.indices[3 * f + 1], c = m.indices[3 * f + 2];
+      const uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
+      next.insert(next.end(), {a, ab, ca, b, bc, ab, c, ca, bc, ab, bc, ca});
+    }
+    m.indices = std::move(next);
+  }
+  for (size_t v = 0; v < m.vertex_count(); ++v) {
+    float* p = &m.positions[3 * v];
+    const float n = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    for (int k = 0; k < 3; ++k) p[k] *= radius / n;
+  }
+  return m;
+}
+
+}  // namespace vpr::testing

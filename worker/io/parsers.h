@@ -1,0 +1,95 @@
+// Internal to vpr_io: one parse function per format, and the bounded text
+// scanning they share. Every parser reads only inside [data, data + size),
+// never allocates more than the bytes it was given can justify (header counts
+// are checked against the data and against MeshLimits first), and reports the
+// problem and where it is (line number for text, element number for binary).
+// parse_mesh() in mesh_io.cpp runs validate_mesh() on the result.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "pipeline/mesh.h"
+#include "pipeline/status.h"
+
+namespace vpr::io_detail {
+
+// saliency (may be nullptr): receives the per-vertex "saliency" values when
+// the file carries them (PLY vertex property, Draco attribute), else is cleared.
+StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& limits);
+StatusOr<Mesh> parse_ply(const uint8_t* data, size_t size, const MeshLimits& limits,
+                         std::vector<float>* saliency);
+StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& limits);
+StatusOr<Mesh> parse_stl(const uint8_t* data, size_t size, const MeshLimits& limits);
+StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& limits,
+                           std::vector<float>* saliency);
+
+// ---- Shared text scanning (implemented in mesh_io.cpp) ----------------------
+
+inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+// Splits [begin, end) into lines at '\n'; a trailing '\r' (CRLF files) is
+// dropped. The buffer need not be NUL-terminated.
+class LineReader {
+ public:
+  LineReader(const char* begin, const char* end) : p_(begin), end_(end) {}
+  // False at the end of the data. line_number() is then the last line's.
+  bool next(std::string_view* line);
+  size_t line_number() const { return line_; }
+  const char* position() const { return p_; }
+
+ private:
+  const char* p_;
+  const char* end_;
+  size_t line_ = 0;
+};
+
+// Whitespace-separated tokens over a byte range, counting lines for messages.
+class TokenReader {
+ public:
+  TokenReader(const char* begin, const char* end) : p_(begin), end_(end) {}
+  // False when only whitespace is left.
+  bool next(std::string_view* token);
+  // Line (1-based) of the token last returned.
+  size_t line_number() const { return line_; }
+  // Skips to the start of the next line.
+  void skip_line();
+
+ private:
+  const char* p_;
+  const char* end_;
+  size_t line_ = 1;
+};
+
+// Removes leading and trailing blanks.
+std::string_view trim(std::string_view s);
+// Pops the next blank-separated token off the front of *s ("" when none is left).
+std::string_view next_token(std::string_view* s);
+
+// The whole token must be a number. Accepts a leading '+', "nan" and "inf" (so
+// that validate_mesh reports them uniformly); values beyond the float range
+// become +-inf, values below it round to zero or a denormal.
+bool parse_float(std::string_view token, float* out);
+bool parse_double(std::string_view token, double* out);
+// The whole token must be a decimal integer (leading '+' or '-' allowed).
+bool parse_int(std::string_view token, int64_t* out);
+
+// Token for messages: quoted, cut to 32 characters, non-printable bytes escaped.
+std::string quote(std::string_view token);
+
+// ---- Writers and files (encode_* in their format's file, files in mesh_io.cpp)
+
+// Binary little-endian PLY: x y z float [saliency float, red green blue uchar],
+// faces as "list uchar uint vertex_indices". saliency: nullptr or #V floats.
+std::vector<uint8_t> encode_ply(const Mesh& mesh, const float* saliency);
+// "v x y z [r g b]" (colors in 0..1 from saliency_color) and "f a b c", 1-based.
+std::vector<uint8_t> encode_obj(const Mesh& mesh, const float* saliency);
+
+// NOT_FOUND when the file is missing; RESOURCE_EXHAUSTED when it cannot be held.
+StatusOr<std::vector<uint8_t>> read_file(const std::string& path);
+Status write_file(const std::string& path, const std::vector<uint8_t>& bytes);
+
+}  // namespace vpr::io_detail

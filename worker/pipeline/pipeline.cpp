@@ -1,0 +1,201 @@
+#include "pipeline.h"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <utility>
+
+#include "debug_output.h"
+#include "unproject.h"
+
+namespace vpr {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// Runs one stage, records its wall time, and checks for cancellation first.
+class StageRunner {
+ public:
+  StageRunner(const PipelineOptions& options, PipelineResult* result) : options_(options), result_(result) {}
+
+  template <class Fn>
+  Status run(const char* name, const std::string& device, Fn&& fn) {
+    if (options_.keep_going && !options_.keep_going())
+      return {StatusCode::kCancelled, std::string("job cancelled before stage ") + name};
+    const auto start = Clock::now();
+    Status status = fn();
+    result_->stages.push_back({name, ms_since(start), device, ""});
+    if (!status.ok()) return {status.code(), std::string(name) + ": " + status.message()};
+    return Status::Ok();
+  }
+
+ private:
+  const PipelineOptions& options_;
+  PipelineResult* result_;
+};
+
+// Spacing of a regular triangle mesh with `count` vertices covering `area`:
+// F ~ 2V triangles of area (sqrt 3 / 4) l^2 each.
+double target_spacing(double area, uint32_t count) { return std::sqrt(2.0 * area / (std::sqrt(3.0) * count)); }
+
+}  // namespace
+
+Status validate_options(const PipelineOptions& o) {
+  if (o.target_vertices < kMinTargetVertices || o.target_vertices > kMaxTargetVertices)
+    return invalid_argument("target of " + std::to_string(o.target_vertices) +
+                            " vertices is outside the supported range [" + std::to_string(kMinTargetVertices) +
+                            ", " + std::to_string(kMaxTargetVertices) + "]");
+  if (o.views.count != 6 && o.views.count != 14)
+    return invalid_argument("views must be 6 or 14, got " + std::to_string(o.views.count));
+  if (o.views.resolution < 64 || o.views.resolution > 4096)
+    return invalid_argument("resolution " + std::to_string(o.views.resolution) +
+                            " is outside the supported range [64, 4096]");
+  if (o.image.median_size < 1 || o.image.median_size % 2 == 0 || o.image.median_size > 31)
+    return invalid_argument("median size must be odd and in [1, 31]");
+  if (o.image.gaussian_size < 1 || o.image.gaussian_size % 2 == 0 || o.image.gaussian_size > 63)
+    return invalid_argument("Gaussian window must be odd and in [1, 63]");
+  if (!(o.image.gaussian_sigma > 0)) return invalid_argument("Gaussian sigma must be positive");
+  if (o.image.skeleton_lambda < 2 || o.image.skeleton_lambda > 64)
+    return invalid_argument("skeleton lambda must be in [2, 64]");
+  if (o.field.k < 1 || o.field.k > 64) return invalid_argument("field k must be in [1, 64]");
+  if (!(o.field.beta > 0 && o.field.beta < 1)) return invalid_argument("beta must be in (0, 1)");
+  if (!(o.field.min_importance > 0 && o.field.min_importance <= 1))
+    return invalid_argument("min importance must be in (0, 1]");
+  if (!(o.awlop.mu >= 0 && o.awlop.mu <= 0.5)) return invalid_argument("mu must be in [0, 0.5]");
+  if (o.awlop.k < 1 || o.awlop.k > 64) return invalid_argument("AWLOP k must be in [1, 64]");
+  if (o.awlop.iterations < 0 || o.awlop.iterations > 200)
+    return invalid_argument("AWLOP iterations must be in [0, 200]");
+  if (o.awlop.attraction_samples_per_target < 1 || o.awlop.attraction_samples_per_target > 32)
+    return invalid_argument("attraction samples per target must be in [1, 32]");
+  return Status::Ok();
+}
+
+StatusOr<PipelineResult> run_pipeline(const Mesh& input, const PipelineOptions& options) {
+  VPR_RETURN_IF_ERROR(validate_options(options));
+  VPR_RETURN_IF_ERROR(validate_mesh(input));
+
+  const auto job_start = Clock::now();
+  const ExecContext ctx;  // the GPU twins plug in here (issue: GPU stages)
+  const std::string cpu = device_name(ctx.device);
+  PipelineResult result;
+  StageRunner stage(options, &result);
+
+  // Stage 1: cameras and snapshots.
+  std::vector<View> views;
+  VPR_RETURN_IF_ERROR(stage.run("views", cpu, [&]() -> Status {
+    VPR_ASSIGN_OR_RETURN(views, make_views(input, options.views));
+    return Status::Ok();
+  }));
+
+  std::unique_ptr<Renderer> renderer;
+  std::vector<Snapshot> snapshots;
+  {
+    const auto start = Clock::now();
+    auto created = create_renderer(options.renderer);
+    if (!created.ok()) return Status(created.status().code(), "render: " + created.status().message());
+    renderer = std::move(created).value();
+    result.renderer = renderer->description();
+    Status status = renderer->render(input, views, &snapshots);
+    result.stages.push_back({"render", ms_since(start), result.renderer, ""});
+    if (!status.ok()) return Status(status.code(), "render: " + status.message());
+  }
+
+  // Stage 2: image-space saliency per view.
+  std::vector<FeatureImages> features(views.size());
+  VPR_RETURN_IF_ERROR(stage.run("image_saliency", cpu, [&]() -> Status {
+    for (size_t v = 0; v < views.size(); ++v)
+      VPR_RETURN_IF_ERROR(cpu::detect_features(snapshots[v], options.image, &features[v], ctx));
+    return Status::Ok();
+  }));
+
+  // Stage 3: feature pixels to 3D saliency points.
+  std::vector<float> saliency_points;
+  std::vector<std::vector<float>> view_points(views.size());
+  VPR_RETURN_IF_ERROR(stage.run("unproject", cpu, [&]() -> Status {
+    for (size_t v = 0; v < views.size(); ++v) {
+      VPR_RETURN_IF_ERROR(
+          cpu::unproject_features(features[v].features, snapshots[v].depth, views[v], &view_points[v], ctx));
+      saliency_points.insert(saliency_points.end(), view_points[v].begin(), view_points[v].end());
+    }
+    return Status::Ok();
+  }));
+  result.saliency_points = saliency_points.size() / 3;
+
+  if (!options.debug_dir.empty()) {
+    VPR_RETURN_IF_ERROR(stage.run("debug_output", cpu, [&]() -> Status {
+      std::error_code ec;
+      std::filesystem::create_directories(options.debug_dir, ec);
+      if (ec) return invalid_argument("cannot create debug directory " + options.debug_dir + ": " + ec.message());
+      for (size_t v = 0; v < views.size(); ++v)
+        VPR_RETURN_IF_ERROR(write_view_debug(options.debug_dir, views[v], snapshots[v], features[v], view_points[v]));
+      return Status::Ok();
+    }));
+  }
+  snapshots.clear();
+  features.clear();
+  view_points.clear();
+
+  // Stage 4: saliency field on the input vertices.
+  const double area = total_area(input);
+  const double spacing_out = target_spacing(area, options.target_vertices);
+  VPR_RETURN_IF_ERROR(stage.run("saliency_field", cpu, [&]() -> Status {
+    float scale = options.field.depth_scale;
+    if (scale <= 0) scale = float(std::max(1.0, spacing_out / std::max(mean_edge_length(input), 1e-30)));
+    return cpu::saliency_field(input.positions.data(), input.vertex_count(), saliency_points.data(),
+                               saliency_points.size() / 3, options.field, scale, &result.input_importance, ctx);
+  }));
+
+  // Stage 5: adaptive sampling of the target count (Eq. 7-16).
+  std::vector<float> particles, particle_importance;
+  VPR_RETURN_IF_ERROR(stage.run("sampling", cpu, [&]() -> Status {
+    std::vector<double> quantity;
+    std::vector<uint32_t> counts, offsets;
+    VPR_RETURN_IF_ERROR(cpu::visual_quantity(input, result.input_importance.data(), &quantity, ctx));
+    VPR_RETURN_IF_ERROR(
+        cpu::distribute_counts(quantity.data(), quantity.size(), options.target_vertices, &counts, &offsets, ctx));
+    return cpu::sample_triangles(input, result.input_importance.data(), counts.data(), offsets.data(),
+                                 options.sampling, &particles, &particle_importance, ctx);
+  }));
+
+  // Stage 6: AWLOP. Its input points are area-uniform samples of the input
+  // surface rather than its vertices, so that CAD meshes with long thin
+  // triangles (vertices only on creases) do not pull the particles to edges.
+  VPR_RETURN_IF_ERROR(stage.run("awlop", cpu, [&]() -> Status {
+    const uint64_t count = uint64_t(options.target_vertices) * options.awlop.attraction_samples_per_target;
+    std::vector<double> areas = face_areas(input);
+    std::vector<uint32_t> counts, offsets;
+    VPR_RETURN_IF_ERROR(cpu::distribute_counts(areas.data(), areas.size(), uint32_t(count), &counts, &offsets, ctx));
+    std::vector<float> ones(input.vertex_count(), 1.0f), surface_points, unused;
+    SamplingOptions uniform = options.sampling;
+    uniform.seed = options.sampling.seed ^ 0x5EEDA77AC7ull;  // independent of the particles' stream
+    uniform.adaptive_min_samples = UINT32_MAX;
+    VPR_RETURN_IF_ERROR(cpu::sample_triangles(input, ones.data(), counts.data(), offsets.data(), uniform,
+                                              &surface_points, &unused, ctx));
+    const double h = options.awlop.support == AwlopSupport::kPaper
+                         ? options.awlop.h_factor * mean_edge_length(input)
+                         : options.awlop.h_factor * spacing_out;
+    return cpu::awlop(surface_points.data(), surface_points.size() / 3, particles.data(),
+                      particle_importance.data(), particle_importance.size(), h, options.awlop, &result.awlop, ctx);
+  }));
+
+  // Stage 7: mesh the optimized points; each output vertex keeps its
+  // particle's importance as its saliency value.
+  VPR_RETURN_IF_ERROR(stage.run("meshing", cpu, [&]() -> Status {
+    std::vector<uint32_t> source;
+    VPR_RETURN_IF_ERROR(mesh_points(particles.data(), particles.size() / 3, options.meshing, &result.mesh, &source,
+                                    &result.meshing));
+    result.saliency.resize(source.size());
+    for (size_t v = 0; v < source.size(); ++v) result.saliency[v] = particle_importance[source[v]];
+    return Status::Ok();
+  }));
+
+  result.total_ms = ms_since(job_start);
+  return result;
+}
+
+}  // namespace vpr

@@ -1,0 +1,68 @@
+// The whole remeshing pipeline (paper Sections III-V), stage by stage:
+//   views -> snapshots -> image saliency -> unprojection -> saliency field ->
+//   adaptive sampling -> AWLOP -> meshing.
+// Plain arrays in, plain arrays out; nothing here knows about gRPC.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "adaptive_sampling.h"
+#include "awlop.h"
+#include "exec_context.h"
+#include "image_saliency.h"
+#include "mesh.h"
+#include "meshing.h"
+#include "saliency_field.h"
+#include "snapshot.h"
+#include "status.h"
+#include "views.h"
+
+namespace vpr {
+
+// Supported output sizes. Below the minimum the views carry more detail than
+// the mesh can hold; the maximum bounds one job's memory (about 1 KiB a vertex).
+inline constexpr uint32_t kMinTargetVertices = 100;
+inline constexpr uint32_t kMaxTargetVertices = 2'000'000;
+
+struct PipelineOptions {
+  uint32_t target_vertices = 0;  // required: output vertex count (within 2%)
+  ViewOptions views;
+  RendererKind renderer = RendererKind::kAuto;
+  ImageSaliencyOptions image;
+  SaliencyFieldOptions field;
+  SamplingOptions sampling;
+  AwlopOptions awlop;
+  MeshingOptions meshing;
+  std::string debug_dir;         // when set: per-view PNGs and saliency points as PLY
+  // Called at every stage boundary; returning false cancels the job there.
+  std::function<bool()> keep_going;
+};
+
+struct StageTiming {
+  std::string name;    // "render", "image_saliency", ...
+  double ms = 0;       // wall time
+  std::string device;  // "cpu", "cuda", "egl: ...", "osmesa: ..."
+  std::string note;    // e.g. why a stage fell back to the CPU
+};
+
+struct PipelineResult {
+  Mesh mesh;                          // the remeshed surface
+  std::vector<float> saliency;        // #V_out importance values in [min_importance, 1]
+  std::vector<float> input_importance;  // #V_in: the saliency field on the input mesh
+  size_t saliency_points = 0;         // 3D points unprojected from feature pixels
+  std::vector<StageTiming> stages;
+  double total_ms = 0;
+  std::string renderer;               // renderer description
+  AwlopStats awlop;
+  MeshingStats meshing;
+};
+
+// Checks options that do not depend on the mesh (target range, constants).
+Status validate_options(const PipelineOptions& options);
+
+StatusOr<PipelineResult> run_pipeline(const Mesh& input, const PipelineOptions& options);
+
+}  // namespace vpr

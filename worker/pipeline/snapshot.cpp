@@ -1,0 +1,332 @@
+// Stage 1 (Section III): snapshots. The paper renders each view with OpenGL and
+// reads back the colour and depth buffers; image-space saliency (stage 2) works
+// on the gray image, unprojection (stage 3) on the depth buffer.
+//
+// Shading is ours, chosen for polygon soups whose faces have no consistent
+// orientation: flat and two-sided, gray = 255 * (0.15 + 0.85 |n . l|), with l
+// a headlight tilted 25 degrees up and to the left of the view direction so
+// that creases facing the camera still differ in brightness.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "gl_functions.h"
+#include "snapshot.h"
+#include "vec3.h"
+
+namespace vpr {
+
+StatusOr<RendererKind> parse_renderer_kind(const std::string& name) {
+  if (name == "auto") return RendererKind::kAuto;
+  if (name == "egl") return RendererKind::kEgl;
+  if (name == "osmesa") return RendererKind::kOsmesa;
+  return invalid_argument("unknown renderer '" + name + "'; expected one of: auto, egl, osmesa");
+}
+
+StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind) {
+  if (kind == RendererKind::kEgl) return gl::create_egl_renderer();
+  if (kind == RendererKind::kOsmesa) return gl::create_osmesa_renderer();
+  auto egl = gl::create_egl_renderer();
+  if (egl.ok()) return egl;
+  auto osmesa = gl::create_osmesa_renderer();
+  if (osmesa.ok()) return osmesa;
+  return unavailable("no renderer could be created: egl: " + egl.status().message() +
+                     "; osmesa: " + osmesa.status().message());
+}
+
+namespace gl {
+namespace {
+
+constexpr double kAmbient = 0.15;            // gray floor, so grazing faces stay distinct from background
+constexpr double kLightTiltDegrees = 25.0;   // headlight tilt toward the view's upper left
+constexpr GLenum kMultisample = 0x809D;      // GL_MULTISAMPLE (GL 1.3)
+// Vertices per glDrawArrays call: keeps any one call well inside driver limits
+// for meshes of tens of millions of faces.
+constexpr GLsizei kDrawChunk = 3 * (1 << 20);
+
+template <class F>
+bool load_one(ProcLoader loader, const char* name, F* slot) {
+  *slot = reinterpret_cast<F>(loader(name));
+  return *slot != nullptr;
+}
+
+std::string hex(unsigned v) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "0x%04X", v);
+  return buf;
+}
+
+Vec3d unit(Vec3d v) {
+  const double n = norm(v);
+  return n > 0 ? v * (1.0 / n) : v;
+}
+
+// The light of one view, in model space (same frame as the face normals).
+Vec3d view_light(const View& view) {
+  // The view's right and up directions in model space, from its inverse
+  // projection: the images of NDC +x and +y, relative to the NDC origin.
+  const Vec3d o = transform_point(view.inv_view_proj, {0, 0, 0});
+  const Vec3d right = unit(transform_point(view.inv_view_proj, {1, 0, 0}) - o);
+  const Vec3d up = unit(transform_point(view.inv_view_proj, {0, 1, 0}) - o);
+  const Vec3d toward{view.toward_camera.x, view.toward_camera.y, view.toward_camera.z};
+  const double t = kLightTiltDegrees * M_PI / 180.0;
+  return unit(std::cos(t) * unit(toward) + std::sin(t) * unit(up - right));
+}
+
+}  // namespace
+
+#ifndef VPR_HAVE_EGL
+StatusOr<std::unique_ptr<Renderer>> create_egl_renderer() {
+  return unavailable("this build has no EGL support (VPR_EGL=OFF)");
+}
+#endif
+#ifndef VPR_HAVE_OSMESA
+StatusOr<std::unique_ptr<Renderer>> create_osmesa_renderer() {
+  return unavailable("this build has no OSMesa support (VPR_OSMESA=OFF)");
+}
+#endif
+
+bool Functions::has_framebuffer_objects() const {
+  return GenFramebuffers && DeleteFramebuffers && BindFramebuffer && GenRenderbuffers && DeleteRenderbuffers &&
+         BindRenderbuffer && RenderbufferStorage && FramebufferRenderbuffer && CheckFramebufferStatus;
+}
+
+Status load_functions(ProcLoader loader, Functions* gl) {
+  std::string missing;
+#define VPR_LOAD(field, name) \
+  if (!load_one(loader, name, &gl->field)) missing += std::string(missing.empty() ? "" : ", ") + name
+  VPR_LOAD(GetString, "glGetString");
+  VPR_LOAD(GetError, "glGetError");
+  VPR_LOAD(GetIntegerv, "glGetIntegerv");
+  VPR_LOAD(Enable, "glEnable");
+  VPR_LOAD(Disable, "glDisable");
+  VPR_LOAD(Viewport, "glViewport");
+  VPR_LOAD(ClearColor, "glClearColor");
+  VPR_LOAD(ClearDepth, "glClearDepth");
+  VPR_LOAD(Clear, "glClear");
+  VPR_LOAD(DepthFunc, "glDepthFunc");
+  VPR_LOAD(DepthMask, "glDepthMask");
+  VPR_LOAD(DepthRange, "glDepthRange");
+  VPR_LOAD(ShadeModel, "glShadeModel");
+  VPR_LOAD(PolygonMode, "glPolygonMode");
+  VPR_LOAD(MatrixMode, "glMatrixMode");
+  VPR_LOAD(LoadMatrixd, "glLoadMatrixd");
+  VPR_LOAD(LoadIdentity, "glLoadIdentity");
+  VPR_LOAD(EnableClientState, "glEnableClientState");
+  VPR_LOAD(DisableClientState, "glDisableClientState");
+  VPR_LOAD(VertexPointer, "glVertexPointer");
+  VPR_LOAD(ColorPointer, "glColorPointer");
+  VPR_LOAD(DrawArrays, "glDrawArrays");
+  VPR_LOAD(PixelStorei, "glPixelStorei");
+  VPR_LOAD(ReadBuffer, "glReadBuffer");
+  VPR_LOAD(ReadPixels, "glReadPixels");
+  VPR_LOAD(Finish, "glFinish");
+#undef VPR_LOAD
+  if (!missing.empty()) return unavailable("the GL library lacks " + missing);
+
+  // Framebuffer objects: core names first, then the EXT extension's.
+  const char* suffixes[] = {"", "EXT"};
+  for (const char* s : suffixes) {
+    auto name = [s](const char* base) { return std::string(base) + s; };
+    bool all = load_one(loader, name("glGenFramebuffers").c_str(), &gl->GenFramebuffers);
+    all &= load_one(loader, name("glDeleteFramebuffers").c_str(), &gl->DeleteFramebuffers);
+    all &= load_one(loader, name("glBindFramebuffer").c_str(), &gl->BindFramebuffer);
+    all &= load_one(loader, name("glGenRenderbuffers").c_str(), &gl->GenRenderbuffers);
+    all &= load_one(loader, name("glDeleteRenderbuffers").c_str(), &gl->DeleteRenderbuffers);
+    all &= load_one(loader, name("glBindRenderbuffer").c_str(), &gl->BindRenderbuffer);
+    all &= load_one(loader, name("glRenderbufferStorage").c_str(), &gl->RenderbufferStorage);
+    all &= load_one(loader, name("glFramebufferRenderbuffer").c_str(), &gl->FramebufferRenderbuffer);
+    all &= load_one(loader, name("glCheckFramebufferStatus").c_str(), &gl->CheckFramebufferStatus);
+    if (all) break;
+  }
+  return Status::Ok();
+}
+
+std::string renderer_string(const Functions& gl) {
+  auto str = [&](GLenum e) {
+    const GLubyte* s = gl.GetString(e);
+    return s ? std::string(reinterpret_cast<const char*>(s)) : std::string("?");
+  };
+  return str(GL_RENDERER) + " (" + str(GL_VENDOR) + ")";
+}
+
+Status ensure_framebuffer(const Functions& gl, int width, int height, Framebuffer* fb) {
+  if (!gl.has_framebuffer_objects()) return unavailable("framebuffer objects are not supported");
+  if (fb->fbo != 0 && fb->width >= width && fb->height >= height) {
+    gl.BindFramebuffer(GL_FRAMEBUFFER, fb->fbo);
+    return Status::Ok();
+  }
+  const int w = std::max(width, fb->width), h = std::max(height, fb->height);
+  destroy_framebuffer(gl, fb);
+  GLint max_size = 0;
+  gl.GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
+  if (w > max_size || h > max_size)
+    return resource_exhausted("snapshot of " + std::to_string(w) + "x" + std::to_string(h) +
+                              " exceeds the GL renderbuffer limit of " + std::to_string(max_size));
+  gl.GetError();  // clear stale errors so the check below is about this setup
+  gl.GenFramebuffers(1, &fb->fbo);
+  gl.BindFramebuffer(GL_FRAMEBUFFER, fb->fbo);
+  gl.GenRenderbuffers(1, &fb->color);
+  gl.BindRenderbuffer(GL_RENDERBUFFER, fb->color);
+  gl.RenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
+  gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, fb->color);
+  gl.GenRenderbuffers(1, &fb->depth);
+  gl.BindRenderbuffer(GL_RENDERBUFFER, fb->depth);
+  gl.RenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+  gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, fb->depth);
+  const GLenum status = gl.CheckFramebufferStatus(GL_FRAMEBUFFER);
+  const GLenum error = gl.GetError();
+  fb->width = w;
+  fb->height = h;
+  if (status != GL_FRAMEBUFFER_COMPLETE || error != GL_NO_ERROR) {
+    destroy_framebuffer(gl, fb);
+    return unavailable("framebuffer object incomplete (status " + hex(status) + ", GL error " + hex(error) + ")");
+  }
+  return Status::Ok();
+}
+
+void destroy_framebuffer(const Functions& gl, Framebuffer* fb) {
+  if (fb->fbo) {
+    gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl.DeleteFramebuffers(1, &fb->fbo);
+  }
+  if (fb->color) gl.DeleteRenderbuffers(1, &fb->color);
+  if (fb->depth) gl.DeleteRenderbuffers(1, &fb->depth);
+  *fb = Framebuffer{};
+}
+
+void max_view_size(const std::vector<View>& views, int* width, int* height) {
+  *width = 0;
+  *height = 0;
+  for (const View& v : views) {
+    *width = std::max(*width, v.width);
+    *height = std::max(*height, v.height);
+  }
+}
+
+Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views,
+                    std::vector<Snapshot>* out) {
+  assert(out != nullptr);
+  out->clear();
+  const size_t nf = mesh.face_count();
+  for (const View& v : views)
+    if (v.width <= 0 || v.height <= 0) return invalid_argument("view " + v.name + " has an empty image");
+  for (uint32_t i : mesh.indices)
+    if (i >= mesh.vertex_count())
+      return invalid_argument("face index " + std::to_string(i) + " is out of range; the mesh has " +
+                              std::to_string(mesh.vertex_count()) + " vertices");
+
+  // Unweld: three vertices per non-degenerate face, each face its own colour.
+  // Positions are stored relative to the bounding-box centre, and the centre
+  // goes into the (double) matrix instead: GL's float transform would
+  // otherwise lose the surface detail of a scan far from the origin.
+  const Aabb box = bounding_box(mesh);
+  const Vec3d centre{0.5 * (double(box.lo[0]) + box.hi[0]), 0.5 * (double(box.lo[1]) + box.hi[1]),
+                     0.5 * (double(box.lo[2]) + box.hi[2])};
+  std::vector<float> positions;
+  std::vector<Vec3d> normals;
+  positions.reserve(9 * nf);
+  normals.reserve(nf);
+  for (size_t f = 0; f < nf; ++f) {
+    const Vec3d a = load3d(mesh.positions.data(), mesh.indices[3 * f]) - centre;
+    const Vec3d b = load3d(mesh.positions.data(), mesh.indices[3 * f + 1]) - centre;
+    const Vec3d c = load3d(mesh.positions.data(), mesh.indices[3 * f + 2]) - centre;
+    const Vec3d n = cross(b - a, c - a);
+    const double len = norm(n);
+    if (!(len > 0.0) || !std::isfinite(len)) continue;  // degenerate: nothing to draw, no normal
+    normals.push_back(n * (1.0 / len));
+    for (const Vec3d& p : {a, b, c}) {
+      positions.push_back(float(p.x));
+      positions.push_back(float(p.y));
+      positions.push_back(float(p.z));
+    }
+  }
+  const size_t kept = normals.size();
+  const GLsizei vertex_count = GLsizei(3 * kept);
+  std::vector<uint8_t> colors(4 * 3 * kept, 255);
+
+  gl.GetError();
+  gl.Disable(GL_DITHER);
+  gl.Disable(kMultisample);
+  gl.Disable(GL_LIGHTING);
+  gl.Disable(GL_CULL_FACE);
+  gl.Disable(GL_BLEND);
+  gl.Disable(GL_TEXTURE_2D);
+  gl.Disable(GL_POLYGON_SMOOTH);
+  gl.Enable(GL_DEPTH_TEST);
+  gl.DepthFunc(GL_LESS);
+  gl.DepthMask(GL_TRUE);
+  gl.DepthRange(0.0, 1.0);
+  gl.ShadeModel(GL_FLAT);
+  gl.PolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  gl.ClearColor(0.f, 0.f, 0.f, 1.f);
+  gl.ClearDepth(1.0);
+  gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
+  gl.MatrixMode(GL_MODELVIEW);
+  gl.LoadIdentity();
+  gl.EnableClientState(GL_VERTEX_ARRAY);
+  gl.EnableClientState(GL_COLOR_ARRAY);
+  gl.VertexPointer(3, GL_FLOAT, 0, positions.data());
+  gl.ColorPointer(4, GL_UNSIGNED_BYTE, 0, colors.data());
+
+  std::vector<uint8_t> rgba;
+  std::vector<float> depth;
+  out->reserve(views.size());
+  for (const View& view : views) {
+    const Vec3d light = view_light(view);
+    for (size_t f = 0; f < kept; ++f) {
+      const double shade = std::clamp(kAmbient + (1.0 - kAmbient) * std::abs(dot(normals[f], light)), 0.0, 1.0);
+      const uint8_t g = uint8_t(std::lround(255.0 * shade));
+      uint8_t* c = &colors[12 * f];
+      for (int k = 0; k < 3; ++k) c[4 * k] = c[4 * k + 1] = c[4 * k + 2] = g;
+    }
+
+    // view_proj * translate(centre): the positions above are centre-relative.
+    Mat4 m = view.view_proj;
+    for (int r = 0; r < 4; ++r)
+      m[12 + r] += m[0 + r] * centre.x + m[4 + r] * centre.y + m[8 + r] * centre.z;
+    gl.MatrixMode(GL_PROJECTION);
+    gl.LoadMatrixd(m.data());
+    gl.Viewport(0, 0, view.width, view.height);
+    gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    for (GLsizei first = 0; first < vertex_count; first += kDrawChunk)
+      gl.DrawArrays(GL_TRIANGLES, first, std::min(kDrawChunk, vertex_count - first));
+
+    const int w = view.width, h = view.height;
+    rgba.resize(size_t(w) * h * 4);
+    depth.resize(size_t(w) * h);
+    gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    gl.ReadPixels(0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
+    const GLenum error = gl.GetError();
+    if (error != GL_NO_ERROR) {
+      gl.DisableClientState(GL_VERTEX_ARRAY);
+      gl.DisableClientState(GL_COLOR_ARRAY);
+      out->clear();
+      return internal_error("GL error " + hex(error) + " while rendering view " + view.name);
+    }
+
+    Snapshot s;
+    s.gray = GrayImage(w, h, 0);
+    s.depth = FloatImage(w, h, 1.0f);
+    s.coverage = Mask(w, h, 0);
+    for (int y = 0; y < h; ++y) {
+      const size_t src_row = size_t(h - 1 - y) * w;  // GL rows count from the bottom
+      for (int x = 0; x < w; ++x) {
+        const float z = depth[src_row + x];
+        if (!(z < 1.0f)) continue;
+        s.depth.at(x, y) = z;
+        s.coverage.at(x, y) = 1;
+        s.gray.at(x, y) = rgba[4 * (src_row + x)];
+      }
+    }
+    out->push_back(std::move(s));
+  }
+  gl.DisableClientState(GL_VERTEX_ARRAY);
+  gl.DisableClientState(GL_COLOR_ARRAY);
+  return Status::Ok();
+}
+
+}  // namespace gl
+}  // namespace vpr
