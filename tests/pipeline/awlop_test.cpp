@@ -132,15 +132,16 @@ TEST(AwlopTest, SphereParticlesStayOnSurfaceAndSpreadOut) {
     max_dev = std::max(max_dev, std::abs(r - 1.0));
     mean_radius += r / 3000.0;
   }
-  // Measured: max |r - 1| = 0.0028, mean radius 0.9990 (attraction to a local
-  // average of sphere points lies slightly inside the sphere).
+  // Measured: max |r - 1| = 0.0019, mean radius 1.0006. Attraction to a local
+  // average of sphere points alone would sit inside the sphere; repulsion from
+  // neighbours that lie below the tangent plane pushes slightly outward and wins.
   EXPECT_LT(max_dev, 0.005);
   EXPECT_NEAR(mean_radius, 1.0, 0.002);
 
   EXPECT_EQ(stats.iterations, 10);
   EXPECT_DOUBLE_EQ(stats.h, h);
   EXPECT_NEAR(stats.nn_cv_before, 0.52, 0.05);
-  // Measured: CV 0.52 -> 0.13 (-75%); the brief asks for at least -30%.
+  // Measured: CV 0.508 -> 0.179 (-65%).
   EXPECT_LT(stats.nn_cv_after, 0.5 * stats.nn_cv_before);
   EXPECT_DOUBLE_EQ(stats.nn_cv_after, nearest_neighbor_cv(particles.data(), 3000));
 }
@@ -153,6 +154,7 @@ TEST(AwlopTest, AdaptiveWeightConcentratesParticlesWhereImportanceIsHigh) {
   std::vector<float> uniform(3000, 1.0f), adaptive(3000);
   for (size_t i = 0; i < 3000; ++i) adaptive[i] = start[3 * i + 2] > 0 ? 1.0f : 0.2f;
   AwlopOptions options;
+  options.iterations = 20;  // the effect grows with iterations; 20 makes it plain
   const double h = target_h(3000);
 
   auto upper_lower_ratio = [](const std::vector<float>& p) {
@@ -165,9 +167,12 @@ TEST(AwlopTest, AdaptiveWeightConcentratesParticlesWhereImportanceIsHigh) {
   ASSERT_TRUE(run_awlop(input, &b, adaptive, h, options).ok());
   const double ratio_uniform = upper_lower_ratio(a);
   const double ratio_adaptive = upper_lower_ratio(b);
-  // Measured: 1.001 (uniform) vs 1.08 (adaptive).
+  // Measured upper/lower: start 0.966, uniform 0.972, adaptive 1.045 (after 10
+  // iterations: 0.982 vs 1.019). The weight only acts where importance changes:
+  // inside a region of equal w_q it cancels from the normalized average.
   EXPECT_NEAR(ratio_uniform, upper_lower_ratio(start), 0.02);
-  EXPECT_GT(ratio_adaptive, ratio_uniform + 0.03);
+  EXPECT_GT(ratio_adaptive, ratio_uniform + 0.05);
+  EXPECT_GT(ratio_adaptive, 1.02);
 }
 
 TEST(AwlopTest, SameResultOnOneAndTwoThreads) {

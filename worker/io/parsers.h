@@ -88,6 +88,10 @@ std::vector<uint8_t> encode_ply(const Mesh& mesh, const float* saliency);
 // "v x y z [r g b]" (colors in 0..1 from saliency_color) and "f a b c", 1-based.
 std::vector<uint8_t> encode_obj(const Mesh& mesh, const float* saliency);
 
+// INVALID_ARGUMENT for what would crash an encoder or make an unreadable file:
+// ragged arrays, indices out of range, non-finite positions or saliency.
+Status check_writable(const Mesh& mesh, const float* saliency);
+
 // NOT_FOUND when the file is missing; RESOURCE_EXHAUSTED when it cannot be held.
 StatusOr<std::vector<uint8_t>> read_file(const std::string& path);
 Status write_file(const std::string& path, const std::vector<uint8_t>& bytes);

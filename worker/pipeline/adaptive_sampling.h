@@ -11,37 +11,44 @@
 
 #include "exec_context.h"
 #include "mesh.h"
+#include "sampling_kernels.h"
 #include "status.h"
 
 namespace vpr {
 
 struct SamplingOptions {
-  uint64_t seed = 1;
+  uint64_t seed = 1;  // Philox key: same seed, same points on every device and thread count
   uint32_t adaptive_min_samples = 5;  // Section IV-B: n_i < 5 -> uniform sampling
 };
 
-// Inverse CDFs of the adaptive sampler, exposed for tests and the GPU twin.
-// A triangle (A, B, C) with importances (ia, ib, ic) is swept by s in [0, 1]
-// from A to the edge BC; t in [0, 1] runs along the slice from AB to AC.
-// Eq. (14): solve the cubic marginal CDF G(s) = r G(1).
-float adaptive_s(float r, float ia, float ib, float ic);
-// Eq. (16): solve the quadratic conditional CDF H(t | s) = r H(1 | s).
-float adaptive_t(float r, float s, float ia, float ib, float ic);
+// The inverse CDFs of the adaptive sampler, exposed for tests and the GPU twin,
+// are inline VPR_HD in sampling_kernels.h (same signatures as before):
+//   float adaptive_s(float r, float ia, float ib, float ic);           // Eq. (14)
+//   float adaptive_t(float r, float s, float ia, float ib, float ic);  // Eq. (16)
+// with the slice parametrisation p = A + s ((1 - t)(B - A) + t (C - A)).
 
 namespace cpu {
 
 // Eq. (7-8): q_i = area_i * (I_a + I_b + I_c) / 3 (#F doubles).
+// importance: #V values, finite and >= 0 (else INVALID_ARGUMENT).
 Status visual_quantity(const Mesh& mesh, const float* importance, std::vector<double>* quantity,
                        const ExecContext& ctx);
 
 // Eq. (9): counts (#F) that sum exactly to target; offsets (#F + 1) is their
 // exclusive prefix sum. n_i = round(S_{i+1}) - round(S_i) with S the scaled
-// prefix sum of q, which is the sequential error diffusion in closed form.
+// prefix sum of q (S_0 = 0, S_F = target exactly, round(x) = floor(x + 0.5)),
+// which is the sequential error diffusion in closed form: the emitted total
+// offsets[i] never drifts more than 1/2 from S_i.
+// quantity: #F values, finite and >= 0 with a positive sum (else
+// INVALID_ARGUMENT; a zero sum means every face is degenerate).
 Status distribute_counts(const double* quantity, size_t face_count, uint32_t target,
                          std::vector<uint32_t>* counts, std::vector<uint32_t>* offsets, const ExecContext& ctx);
 
 // Eq. (11-16): writes offsets[F] points (3 floats each) and their interpolated
-// importance; sample j of face f is stored at offsets[f] + j.
+// importance; sample j of face f is stored at offsets[f] + j. Faces with
+// counts[f] < adaptive_min_samples are sampled uniformly in area, the others by
+// the inverse CDFs (sample_point in sampling_kernels.h). offsets must be the
+// exclusive prefix sum of counts (else INVALID_ARGUMENT).
 Status sample_triangles(const Mesh& mesh, const float* importance, const uint32_t* counts,
                         const uint32_t* offsets, const SamplingOptions& options, std::vector<float>* points,
                         std::vector<float>* point_importance, const ExecContext& ctx);

@@ -1,0 +1,141 @@
+// Silhouette-feature filter (Section III-B, Eq. 4-5), CPU twin. The per-pixel
+// rules are in image_kernels.h (silhouette_at, skeleton_at) for the GPU twin.
+#include "silhouette_feature.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "distance_transform.h"
+#include "image_kernels.h"
+
+namespace vpr::cpu {
+namespace {
+
+// A silhouette pixel of a part at least 5 px thick has a pixel with distance
+// >= kSkeletonMinDistance within this reach (2 sqrt 2 at a square corner, a
+// little more on digitized slanted edges); one farther away sits on a part too
+// thin for Eq. (5) to find a ridge in.
+constexpr float kThinPartReach = 3.0f;
+
+Status check_mask(const char* what, const Mask& m, int w, int h) {
+  if (m.width != w || m.height != h || m.pixels.size() != size_t(w) * size_t(h)) {
+    return invalid_argument(std::string(what) + " is " + std::to_string(m.width) + " x " +
+                            std::to_string(m.height) + " with " + std::to_string(m.pixels.size()) +
+                            " pixels; expected " + std::to_string(w) + " x " + std::to_string(h));
+  }
+  return Status::Ok();
+}
+
+Status check_size(const char* what, int w, int h) {
+  if (w <= 0 || h <= 0) {
+    return invalid_argument(std::string(what) + ": image is " + std::to_string(w) + " x " +
+                            std::to_string(h) + "; need a non-empty image");
+  }
+  return Status::Ok();
+}
+
+template <class Fn>
+void for_each_row(int h, Fn&& fn) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y != rows.end(); ++y) fn(y);
+  });
+}
+
+}  // namespace
+
+Status silhouette_pixels(const Mask& foreground, Mask* silhouette, const ExecContext& /*ctx*/) {
+  assert(silhouette != nullptr);
+  const int w = foreground.width, h = foreground.height;
+  VPR_RETURN_IF_ERROR(check_size("silhouette_pixels", w, h));
+  VPR_RETURN_IF_ERROR(check_mask("silhouette_pixels: foreground", foreground, w, h));
+  *silhouette = Mask(w, h, 0);
+  const uint8_t* fg = foreground.pixels.data();
+  uint8_t* out = silhouette->pixels.data();
+  for_each_row(h, [&](int y) {
+    for (int x = 0; x < w; ++x) out[size_t(y) * w + x] = silhouette_at(fg, w, h, x, y) ? 1 : 0;
+  });
+  return Status::Ok();
+}
+
+Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, int lambda, Mask* skeleton,
+                const ExecContext& /*ctx*/) {
+  assert(skeleton != nullptr);
+  const int w = silhouette_distance.width, h = silhouette_distance.height;
+  VPR_RETURN_IF_ERROR(check_size("skeleton", w, h));
+  if (silhouette_distance.pixels.size() != size_t(w) * size_t(h)) {
+    return invalid_argument("skeleton: distance map has " + std::to_string(silhouette_distance.pixels.size()) +
+                            " pixels; expected " + std::to_string(w) + " x " + std::to_string(h));
+  }
+  VPR_RETURN_IF_ERROR(check_mask("skeleton: foreground", foreground, w, h));
+  if (lambda < 2 || lambda % 2 != 0 || lambda > 64) {
+    return invalid_argument("skeleton: lambda = " + std::to_string(lambda) +
+                            " must be even and in [2, 64] (Eq. 5)");
+  }
+  const int m = lambda / 2;  // Eq. (5): the kernel spans lambda + 1 pixels, m each way
+  *skeleton = Mask(w, h, 0);
+  const float* dist = silhouette_distance.pixels.data();
+  const uint8_t* fg = foreground.pixels.data();
+  uint8_t* out = skeleton->pixels.data();
+  for_each_row(h, [&](int y) {
+    for (int x = 0; x < w; ++x) out[size_t(y) * w + x] = skeleton_at(dist, fg, w, h, x, y, m) ? 1 : 0;
+  });
+  return Status::Ok();
+}
+
+Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask& skeleton,
+                     const FloatImage& silhouette_distance, float threshold_px, Mask* thin,
+                     const ExecContext& ctx) {
+  assert(thin != nullptr);
+  const int w = foreground.width, h = foreground.height;
+  VPR_RETURN_IF_ERROR(check_size("thin_features", w, h));
+  VPR_RETURN_IF_ERROR(check_mask("thin_features: foreground", foreground, w, h));
+  VPR_RETURN_IF_ERROR(check_mask("thin_features: silhouette", silhouette, w, h));
+  VPR_RETURN_IF_ERROR(check_mask("thin_features: skeleton", skeleton, w, h));
+  if (silhouette_distance.width != w || silhouette_distance.height != h ||
+      silhouette_distance.pixels.size() != size_t(w) * size_t(h)) {
+    return invalid_argument("thin_features: distance map is " + std::to_string(silhouette_distance.width) +
+                            " x " + std::to_string(silhouette_distance.height) + "; expected " +
+                            std::to_string(w) + " x " + std::to_string(h));
+  }
+  if (!(threshold_px >= 0.f) || !std::isfinite(threshold_px)) {
+    return invalid_argument("thin_features: threshold " + std::to_string(threshold_px) +
+                            " px must be finite and >= 0");
+  }
+
+  // Feature size: distance from each silhouette pixel to the skeleton.
+  FloatImage to_skeleton;
+  VPR_RETURN_IF_ERROR(distance_transform(skeleton, &to_skeleton, ctx));
+
+  // Parts too thin for the skeleton (see kThinPartReach).
+  Mask core(w, h, 0);
+  float max_distance = 0.f;
+  for (size_t i = 0; i < core.pixels.size(); ++i) {
+    if (!foreground.pixels[i]) continue;
+    core.pixels[i] = silhouette_distance.pixels[i] >= kSkeletonMinDistance;
+    max_distance = std::max(max_distance, silhouette_distance.pixels[i]);
+  }
+  FloatImage to_core;
+  VPR_RETURN_IF_ERROR(distance_transform(core, &to_core, ctx));
+  const bool thin_parts_count = threshold_px > kSkeletonMinDistance;
+
+  bool any_skeleton = false;
+  for (uint8_t s : skeleton.pixels) any_skeleton = any_skeleton || s;
+  const bool all_thin = !any_skeleton && max_distance < threshold_px;
+
+  *thin = Mask(w, h, 0);
+  for_each_row(h, [&](int y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = size_t(y) * w + x;
+      if (!silhouette.pixels[i]) continue;
+      thin->pixels[i] = all_thin || to_skeleton.pixels[i] < threshold_px ||
+                        (thin_parts_count && to_core.pixels[i] > kThinPartReach);
+    }
+  });
+  return Status::Ok();
+}
+
+}  // namespace vpr::cpu
