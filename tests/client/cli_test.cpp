@@ -18,14 +18,14 @@ namespace fs = std::filesystem;
 namespace vpr {
 namespace {
 
-struct Run {
+struct CliRun {
   int code = -1;
   std::string out;  // stdout and stderr together
 };
 
-Run run_cli(const std::string& args) {
+CliRun run_cli(const std::string& args) {
   const std::string cmd = std::string(VPR_CLI_PATH) + " " + args + " 2>&1";
-  Run r;
+  CliRun r;
   FILE* pipe = popen(cmd.c_str(), "r");
   if (!pipe) return r;
   char buf[4096];
@@ -53,7 +53,7 @@ class CliTest : public ::testing::Test {
 
 TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
   const std::string out = path("spot.drc");
-  Run r = run_cli("local ../shared/models/spot.obj -o " + out + " --target-vertices 800 --json --field-out " +
+  CliRun r = run_cli("local ../shared/models/spot.obj -o " + out + " --target-vertices 800 --json --field-out " +
                   path("field.ply") + " --debug-dir " + path("debug"));
   ASSERT_EQ(r.code, 0) << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
@@ -83,7 +83,7 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
 }
 
 TEST_F(CliTest, TablePrintsEveryStage) {
-  Run r = run_cli("local ../shared/models/suzanne.obj -o " + path("s.ply") + " --target-vertices 300");
+  CliRun r = run_cli("local ../shared/models/suzanne.obj -o " + path("s.ply") + " --target-vertices 300");
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* stage : {"render", "image_saliency", "saliency_field", "awlop", "meshing", "total"})
     EXPECT_NE(r.out.find(stage), std::string::npos) << r.out;
@@ -114,14 +114,14 @@ TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
       {"local " + good + " -o " + path("o.ply") + " -n 500 --renderer vulkan", 3, "vulkan"},
   };
   for (const Case& c : cases) {
-    Run r = run_cli(c.args);
+    CliRun r = run_cli(c.args);
     EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.out;
     EXPECT_NE(r.out.find(c.needle), std::string::npos) << c.args << "\n" << r.out;
   }
 }
 
 TEST_F(CliTest, EvalOfAMeshAgainstItselfIsZero) {
-  Run r = run_cli("eval ../shared/models/spot.obj ../shared/models/spot.obj --json --samples 20000");
+  CliRun r = run_cli("eval ../shared/models/spot.obj ../shared/models/spot.obj --json --samples 20000");
   ASSERT_EQ(r.code, 0) << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_LT(double(j["hausdorff"]["max"]), 1e-9);

@@ -120,9 +120,10 @@ TEST(Hausdorff, TranslatedCubeMatchesClosedForm) {
   EXPECT_NEAR(r->forward_max, d / kSqrt3, 0.02 * d / kSqrt3);
   EXPECT_NEAR(r->backward_max, d / kSqrt3, 0.02 * d / kSqrt3);
   EXPECT_NEAR(r->max, d / kSqrt3, 0.02 * d / kSqrt3);
-  // 200k samples: the Monte Carlo error of the mean is ~0.2%, well inside 2%.
-  EXPECT_NEAR(r->mean, mean / kSqrt3, 0.02 * mean / kSqrt3);
-  EXPECT_NEAR(r->rms, std::sqrt(ms) / kSqrt3, 0.02 * std::sqrt(ms) / kSqrt3);
+  // 200k samples: the standard error of the mean is ~0.2%; 1% is five of them
+  // (measured: 0.03% off for the mean, 0.003% for the rms).
+  EXPECT_NEAR(r->mean, mean / kSqrt3, 0.01 * mean / kSqrt3);
+  EXPECT_NEAR(r->rms, std::sqrt(ms) / kSqrt3, 0.01 * std::sqrt(ms) / kSqrt3);
 }
 
 // Fine icosphere (level 4) against a coarse one (level 2), both with vertices on
@@ -141,9 +142,11 @@ TEST(Hausdorff, CoarseSphereWithinSagittaBounds) {
   const double max_model = r->max * r->diagonal;
   EXPECT_LE(max_model, s_c + 1e-6);  // 1e-6: float vertex coordinates
   EXPECT_GE(max_model, s_c - s_f - 1e-4);
-  // The bound is about 7% wide: s_c ~ 0.0121, s_f ~ 0.0008.
-  EXPECT_GT(s_c, 0.011);
-  EXPECT_LT(s_f, 0.001);
+  // The window is about 7% of s_c (s_c = 0.0178, s_f = 0.0011 for these meshes).
+  // Measured: 0.016615, at the lower end: the largest coarse faces (around the
+  // icosahedron's face centres) lie under the largest fine faces, coaxially.
+  EXPECT_GT(s_c, 0.017);
+  EXPECT_LT(s_f, 0.0015);
   // Fine vertices sit on the sphere close to coarse face centres, so the
   // forward direction also gets close to s_c: within s_c - (angular spacing)^2.
   EXPECT_GE(r->forward_max * r->diagonal, s_c - 2e-3);

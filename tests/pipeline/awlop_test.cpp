@@ -189,6 +189,18 @@ TEST(AwlopTest, SameResultOnOneAndTwoThreads) {
   EXPECT_EQ(one, two);  // bitwise
 }
 
+TEST(AwlopTest, HandlesZeroAndOneParticle) {
+  const std::vector<float> input = random_sphere(2000, 1);
+  AwlopOptions options;
+  AwlopStats stats;
+  EXPECT_TRUE(cpu::awlop(input.data(), 2000, nullptr, nullptr, 0, 0.1, options, &stats, ExecContext{}).ok());
+  // One particle: no repulsion; it settles on a weighted average of the inputs nearby.
+  std::vector<float> one = {0.0f, 0.0f, 1.2f};
+  const std::vector<float> importance = {1.0f};
+  ASSERT_TRUE(run_awlop(input, &one, importance, 0.1, options).ok());
+  EXPECT_NEAR(norm(load3d(one.data(), 0)), 1.0, 0.01);
+}
+
 TEST(AwlopTest, RejectsBadInput) {
   const std::vector<float> input = random_sphere(100, 1);
   std::vector<float> particles = random_sphere(10, 2);

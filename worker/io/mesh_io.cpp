@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <cfloat>
 #include <filesystem>
 #include <new>
 
@@ -114,10 +115,16 @@ bool parse_float(std::string_view token, float* out) {
   if (ec == std::errc::result_out_of_range) {
     double d = 0;
     if (!parse_double(token, &d)) return false;
-    *out = static_cast<float>(d);  // beyond FLT_MAX -> inf, caught by validate_mesh
+    *out = to_float(d);
     return true;
   }
   return ec == std::errc();
+}
+
+float to_float(double v) {
+  if (v > double(FLT_MAX)) return HUGE_VALF;
+  if (v < -double(FLT_MAX)) return -HUGE_VALF;
+  return static_cast<float>(v);  // NaN compares false above and stays NaN
 }
 
 bool parse_int(std::string_view token, int64_t* out) {
@@ -249,34 +256,41 @@ Status prefixed(const Status& status, const std::string& prefix) {
   return Status(status.code(), prefix + status.message());
 }
 
+StatusOr<Mesh> parse_format(const uint8_t* data, size_t size, MeshFormat format, const MeshLimits& limits,
+                            std::vector<float>* saliency) {
+  switch (format) {
+    case MeshFormat::kDraco: return parse_draco(data, size, limits, saliency);
+    case MeshFormat::kObj: return parse_obj(data, size, limits);
+    case MeshFormat::kPly: return parse_ply(data, size, limits, saliency);
+    case MeshFormat::kOff: return parse_off(data, size, limits);
+    case MeshFormat::kStl: return parse_stl(data, size, limits);
+  }
+  return internal_error("unknown MeshFormat " + std::to_string(int(format)));
+}
+
 StatusOr<Mesh> parse_any(const uint8_t* data, size_t size, MeshFormat format, const MeshLimits& limits,
                          std::vector<float>* saliency) {
   assert(data != nullptr || size == 0);
   if (saliency) saliency->clear();
   const std::string name = format_name(format);
   if (size == 0) return invalid_argument(name + ": the input is empty (0 bytes)");
-  StatusOr<Mesh> parsed = invalid_argument("unreachable");
   try {
-    switch (format) {
-      case MeshFormat::kDraco: parsed = parse_draco(data, size, limits, saliency); break;
-      case MeshFormat::kObj: parsed = parse_obj(data, size, limits); break;
-      case MeshFormat::kPly: parsed = parse_ply(data, size, limits, saliency); break;
-      case MeshFormat::kOff: parsed = parse_off(data, size, limits); break;
-      case MeshFormat::kStl: parsed = parse_stl(data, size, limits); break;
-    }
+    StatusOr<Mesh> parsed = parse_format(data, size, format, limits, saliency);
+    if (!parsed.ok()) return parsed.status();
+    // NaN/Inf, empty, point cloud, index range and size limits, reported the
+    // same way for every format.
+    VPR_RETURN_IF_ERROR(prefixed(validate_mesh(*parsed, limits), name + ": "));
+    if (saliency && !saliency->empty() && saliency->size() != parsed->vertex_count())
+      return internal_error(name + ": saliency has " + std::to_string(saliency->size()) + " values for " +
+                            std::to_string(parsed->vertex_count()) + " vertices");
+    return parsed;
   } catch (const std::bad_alloc&) {
+    // Counts are checked against the limits and the data before anything is
+    // sized from them; this is the machine running out below those limits.
     return resource_exhausted(name + ": out of memory while parsing " + std::to_string(size) + " bytes");
   } catch (const std::length_error&) {
     return resource_exhausted(name + ": out of memory while parsing " + std::to_string(size) + " bytes");
   }
-  if (!parsed.ok()) return parsed.status();
-  // NaN/Inf, empty, point cloud, index range and size limits, reported the
-  // same way for every format.
-  VPR_RETURN_IF_ERROR(prefixed(validate_mesh(*parsed, limits), name + ": "));
-  if (saliency && !saliency->empty() && saliency->size() != parsed->vertex_count())
-    return internal_error(name + ": saliency has " + std::to_string(saliency->size()) + " values for " +
-                          std::to_string(parsed->vertex_count()) + " vertices");
-  return parsed;
 }
 
 }  // namespace

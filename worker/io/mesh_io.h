@@ -1,6 +1,7 @@
 // Reading and writing meshes. Input: Draco (.drc, the service's wire format),
 // OBJ, PLY (ASCII and binary), OFF and STL (ASCII and binary). Polygons are
-// triangulated as fans; soups are kept as they are. Output: .drc, .ply, .obj,
+// triangulated as fans; soups are kept as they are (STL corners at exactly the
+// same position are merged, first occurrence first). Output: .drc, .ply, .obj,
 // with an optional per-vertex saliency value.
 #pragma once
 
@@ -19,21 +20,30 @@ enum class MeshFormat { kDraco, kObj, kPly, kOff, kStl };
 StatusOr<MeshFormat> format_from_path(const std::string& path);
 
 // Parses bytes of the given format. Every failure is INVALID_ARGUMENT with a
-// message naming the problem (line number for text formats); the result is
-// checked with validate_mesh(limits).
+// message naming the problem (line number for text formats), or
+// RESOURCE_EXHAUSTED when counts (from the header where the format has one)
+// pass the limits; the result is checked with validate_mesh(limits).
+// read_mesh: NOT_FOUND for a missing file; messages start with the path.
 StatusOr<Mesh> parse_mesh(const uint8_t* data, size_t size, MeshFormat format, const MeshLimits& limits = {});
 StatusOr<Mesh> read_mesh(const std::string& path, const MeshLimits& limits = {});
 
+// A value moves by at most half a quantization step: range / (2^bits - 1) / 2,
+// with range the largest extent of the attribute (positions: the bounding box).
 struct DracoOptions {
-  int position_bits = 14;  // quantization of positions
-  int saliency_bits = 10;  // quantization of the saliency attribute
-  int speed = 5;           // Draco encoder speed 0 (best) .. 10 (fastest)
+  int position_bits = 14;  // quantization of positions, 1..30
+  int saliency_bits = 10;  // quantization of the saliency attribute, 1..30
+  // Draco encoder speed 0 (best) .. 10 (fastest). 10 selects sequential
+  // connectivity, which keeps every face and vertex as given; 0..9 select
+  // edgebreaker, which reorders vertices, drops degenerate (repeated-index)
+  // faces and splits non-manifold vertices.
+  int speed = 5;
 };
 
 // saliency: nullptr or #V floats in [0, 1]. Draco stores it as a GENERIC
 // attribute whose metadata name is "saliency"; PLY as a vertex property
 // "saliency" plus red/green/blue from a color ramp; OBJ as vertex colors.
 StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* saliency, const DracoOptions& options);
+// .drc, .ply or .obj by extension (.off and .stl are input formats only).
 Status write_mesh(const std::string& path, const Mesh& mesh, const float* saliency,
                   const DracoOptions& options = {});
 
@@ -43,7 +53,8 @@ StatusOr<std::vector<float>> read_saliency(const std::string& path);
 // Points as a binary PLY (debug output): points #N x 3, optional colors #N x 3 bytes.
 Status write_point_ply(const std::string& path, const float* points, size_t n, const uint8_t* colors);
 
-// The color ramp used for saliency (0 -> blue, 0.5 -> green/yellow, 1 -> red).
+// The color ramp used for saliency: linear between blue (0), cyan (0.25),
+// green (0.5), yellow (0.75) and red (1); values are clamped, NaN is blue.
 void saliency_color(float value, uint8_t rgb[3]);
 
 }  // namespace vpr

@@ -74,6 +74,10 @@ std::string_view next_token(std::string_view* s);
 // become +-inf, values below it round to zero or a denormal.
 bool parse_float(std::string_view token, float* out);
 bool parse_double(std::string_view token, double* out);
+// double -> float without undefined behaviour: beyond the float range gives
+// +-inf (reported later by validate_mesh), NaN stays NaN.
+float to_float(double v);
+
 // The whole token must be a decimal integer (leading '+' or '-' allowed).
 bool parse_int(std::string_view token, int64_t* out);
 

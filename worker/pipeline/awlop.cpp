@@ -10,7 +10,6 @@
 #include <cmath>
 #include <flann/flann.hpp>
 #include <limits>
-#include <memory>
 #include <string>
 #include <vector>
 
@@ -124,6 +123,7 @@ Status awlop(const float* input_points, size_t np, float* particles, const float
     stats->h = h;
     stats->nn_cv_before = nearest_neighbor_cv(particles, nx);
   }
+  if (nx == 0) return Status::Ok();
 
   const double inv_h2 = 1.0 / (h * h);
   const double r_floor = 1e-9 * h;  // guard for r -> 0 in 1/r (Eq. 17-18)

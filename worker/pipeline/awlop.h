@@ -32,19 +32,25 @@ enum class AwlopSupport {
   // h = h_factor * mean input edge length: the paper's h. On a dense input the
   // input edges are much shorter than the particle spacing, theta has decayed
   // to nothing at the nearest particle, and repulsion reduces to "step away
-  // from the single nearest particle" (see docs/performance.md for numbers).
+  // from the single nearest particle". Measured (unit sphere, 100k uniform
+  // input points, h = 2 x input spacing = 0.022, 2k uniform random particles,
+  // NN-distance CV 0.52 at start): CV 0.29 after 10 iterations, then ~0.28.
   kPaper,
   // h = h_factor * sqrt(area / target): the spacing of the output, so theta
-  // spans the particle's own neighbourhood whatever the input density.
+  // spans the particle's own neighbourhood whatever the input density. Same
+  // measurement (h = 0.159): CV 0.15 after 10 iterations, 0.14 after 15-20,
+  // 0.13 after 40.
   kTargetSpacing,
 };
 
 struct AwlopOptions {
   float mu = 0.45f;        // Eq. (17): repulsion strength
   int k = 20;              // neighbours searched for attraction and repulsion (paper: 20)
-  int iterations = 10;     // measured default: see docs/performance.md (CV of NN distances levels off)
+  // Measured default: with kTargetSpacing, 10 iterations give ~95% of the CV
+  // reduction that 40 do (see AwlopSupport).
+  int iterations = 10;
   AwlopSupport support = AwlopSupport::kTargetSpacing;
-  float h_factor = 2.0f;   // h = 2 L_avg
+  float h_factor = 2.0f;   // h = h_factor x the length `support` names (paper: 2 L_avg)
   int attraction_samples_per_target = 4;  // input points: uniform surface samples, 4 per target vertex
 };
 

@@ -27,7 +27,7 @@ constexpr int64_t kNoSeed = -1;  // column without any seed: f(q) = infinity
 // Pass 1 over columns [x0, x1): col[y * w + x] = squared distance from (x, y) to
 // the nearest seed in column x. Sweeps rows so that memory is read in order.
 void column_pass(const uint8_t* seeds, int w, int h, int x0, int x1, int64_t* col) {
-  std::vector<int> last(size_t(x1 - x0));
+  std::vector<int> last(static_cast<size_t>(x1 - x0));
   for (int& y : last) y = std::numeric_limits<int>::min() / 2;
   for (int y = 0; y < h; ++y) {  // nearest seed above (or at) y
     for (int x = x0; x < x1; ++x) {
@@ -122,7 +122,7 @@ Status distance_transform(const Mask& seeds, FloatImage* dist, const ExecContext
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     std::vector<int> v;
     std::vector<double> z;
-    std::vector<int64_t> d2(size_t(w));
+    std::vector<int64_t> d2(static_cast<size_t>(w));
     for (int y = rows.begin(); y != rows.end(); ++y) {
       row_pass(col.data() + size_t(y) * w, w, d2.data(), v, z);
       float* out = dist->pixels.data() + size_t(y) * w;

@@ -7,12 +7,12 @@
 // OSMesaGetProcAddress), and no gl* symbol is referenced at link time.
 #pragma once
 
+#include <GL/gl.h>
+#include <GL/glext.h>
+
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <GL/gl.h>
-#include <GL/glext.h>
 
 #include "snapshot.h"
 #include "status.h"
@@ -86,8 +86,7 @@ void destroy_framebuffer(const Functions& gl, Framebuffer* fb);
 // framebuffer holds at least each view's width x height, shades the mesh
 // (flat, two-sided headlight, see snapshot.cpp) from each view and reads back
 // gray, depth and coverage with row 0 at the top.
-Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views,
-                    std::vector<Snapshot>* out);
+Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out);
 
 // Largest width and height over the views.
 void max_view_size(const std::vector<View>& views, int* width, int* height);

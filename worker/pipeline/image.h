@@ -2,6 +2,7 @@
 // output is flipped once, in the renderer).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 

@@ -66,9 +66,7 @@ Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& opt
   // The same window on the coverage is a majority vote (the median of a 0/1
   // image), so one-pixel bumps and notches of scanned silhouettes do not grow
   // skeleton spurs.
-  Mask binary(w, h, 0);
-  for (size_t i = 0; i < binary.pixels.size(); ++i) binary.pixels[i] = coverage.pixels[i] != 0;
-  VPR_RETURN_IF_ERROR(median_filter(binary, options.median_size, &out->foreground, ctx));
+  VPR_RETURN_IF_ERROR(majority_filter(coverage, options.median_size, &out->foreground, ctx));
 
   VPR_RETURN_IF_ERROR(silhouette_pixels(out->foreground, &out->silhouette, ctx));
 

@@ -20,22 +20,25 @@ struct ImageSaliencyOptions {
   float gaussian_sigma = 2.0f;   // Eq. (1): sigma of the Gaussian weights
   int threshold_c = 3;           // Eq. (3): a pixel is a feature when T > P, T = mean - C
   int skeleton_lambda = 8;       // Eq. (5): lambda of the directional skeleton kernels
-  float thin_feature_px = 20.f;  // feature size threshold at 512 px; scaled by resolution / 512
+  float thin_feature_px = 20.f;  // feature size threshold at 512 px; scaled by max(width, height) / 512
 };
 
 struct FeatureImages {
   GrayImage filtered;   // median-filtered gray image
-  Mask foreground;      // coverage after the same median (majority) filter
+  Mask foreground;      // coverage after the same median (majority) filter; parts under 4 px wide vanish
   Mask silhouette;      // foreground pixels with a background 4-neighbour
   Mask inner;           // inner features (Eq. 1-3), silhouette pixels removed
-  FloatImage silhouette_distance;  // Eq. (4): distance of foreground pixels to the silhouette
+  FloatImage silhouette_distance;  // Eq. (4): distance (px) of foreground pixels to the silhouette; 0 on background
   Mask skeleton;        // Eq. (5)
-  Mask thin;            // silhouette pixels of thin features
+  Mask thin;            // silhouette pixels of thin features (thin_feature_px, see thin_features)
   Mask features;        // inner | thin: the pixels that become saliency points
 };
 
 namespace cpu {
 
+// Fills every image of *out, each the size of the snapshot (gray and coverage
+// are read; depth is not). INVALID_ARGUMENT when gray and coverage differ in
+// size or an option is out of range. Identical output at any thread count.
 Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& options, FeatureImages* out,
                        const ExecContext& ctx);
 

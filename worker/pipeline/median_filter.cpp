@@ -6,6 +6,7 @@
 // (image_kernels.h); both are exact, so they agree pixel for pixel.
 #include "median_filter.h"
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -15,32 +16,68 @@
 #include "image_kernels.h"
 
 namespace vpr::cpu {
+namespace {
 
-Status median_filter(const GrayImage& in, int size, GrayImage* out, const ExecContext& /*ctx*/) {
-  assert(out != nullptr);
-  if (in.width <= 0 || in.height <= 0 || in.pixels.size() != size_t(in.width) * size_t(in.height)) {
-    return invalid_argument("median_filter: image is " + std::to_string(in.width) + " x " +
-                            std::to_string(in.height) + " with " + std::to_string(in.pixels.size()) +
+Status check_input(const char* what, int w, int h, size_t pixels, int size) {
+  if (w <= 0 || h <= 0 || pixels != size_t(w) * size_t(h)) {
+    return invalid_argument(std::string(what) + ": image is " + std::to_string(w) + " x " + std::to_string(h) +
+                            " with " + std::to_string(pixels) +
                             " pixels; need a non-empty image with width * height pixels");
   }
   if (size < 1 || size % 2 == 0 || size > 255) {
-    return invalid_argument("median_filter: window size " + std::to_string(size) +
+    return invalid_argument(std::string(what) + ": window size " + std::to_string(size) +
                             " must be odd and in [1, 255]");
   }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status median_filter(const GrayImage& in, int size, GrayImage* out, const ExecContext& /*ctx*/) {
+  assert(out != nullptr);
+  VPR_RETURN_IF_ERROR(check_input("median_filter", in.width, in.height, in.pixels.size(), size));
   const int w = in.width, h = in.height, r = size / 2;
   const int rank = size * size / 2;  // 0-based rank of the median in the sorted window
-  *out = GrayImage(w, h);
+  *out = GrayImage(w, h, 0);
   const uint8_t* src = in.pixels.data();
   uint8_t* dst = out->pixels.data();
+
+  // Snapshots are mostly background (0), and a window holding only zeros has
+  // median 0: per row, only the span within r of a nonzero pixel of its band
+  // of rows is filtered; the rest keeps the 0 it was given. Exact for any image.
+  std::vector<int> first_nonzero(h), last_nonzero(h);
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y != rows.end(); ++y) {
+      const uint8_t* row = src + size_t(y) * w;
+      int first = w, last = -1;
+      for (int x = 0; x < w; ++x) {
+        if (row[x]) {
+          first = std::min(first, x);
+          last = x;
+        }
+      }
+      first_nonzero[y] = first;
+      last_nonzero[y] = last;
+    }
+  });
 
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
     std::vector<const uint8_t*> window_rows(size);
     int hist[256];
     for (int y = rows.begin(); y != rows.end(); ++y) {
-      for (int j = 0; j < size; ++j) window_rows[j] = src + size_t(clamp_index(y + j - r, h)) * w;
+      int first = w, last = -1;
+      for (int j = 0; j < size; ++j) {
+        const int source_row = clamp_index(y + j - r, h);
+        window_rows[j] = src + size_t(source_row) * w;
+        first = std::min(first, first_nonzero[source_row]);
+        last = std::max(last, last_nonzero[source_row]);
+      }
+      if (last < 0) continue;  // the whole band is 0
+      const int x_begin = std::max(0, first - r), x_end = std::min(w, last + r + 1);
+
       for (int& bin : hist) bin = 0;
       for (int j = 0; j < size; ++j) {
-        for (int dx = -r; dx <= r; ++dx) ++hist[window_rows[j][clamp_index(dx, w)]];
+        for (int dx = -r; dx <= r; ++dx) ++hist[window_rows[j][clamp_index(x_begin + dx, w)]];
       }
       // Invariant: below = number of window values < median, and
       // below <= rank < below + hist[median].
@@ -48,9 +85,9 @@ Status median_filter(const GrayImage& in, int size, GrayImage* out, const ExecCo
       while (below + hist[median] <= rank) below += hist[median++];
 
       uint8_t* out_row = dst + size_t(y) * w;
-      for (int x = 0; x < w; ++x) {
+      for (int x = x_begin; x < x_end; ++x) {
         out_row[x] = static_cast<uint8_t>(median);
-        if (x + 1 == w) break;
+        if (x + 1 == x_end) break;
         const int leaving = clamp_index(x - r, w), entering = clamp_index(x + r + 1, w);
         if (leaving == entering) continue;  // both clamped to the same edge column
         for (int j = 0; j < size; ++j) {
@@ -62,6 +99,39 @@ Status median_filter(const GrayImage& in, int size, GrayImage* out, const ExecCo
         }
         while (below > rank) below -= hist[--median];
         while (below + hist[median] <= rank) below += hist[median++];
+      }
+    }
+  });
+  return Status::Ok();
+}
+
+Status majority_filter(const Mask& in, int size, Mask* out, const ExecContext& /*ctx*/) {
+  assert(out != nullptr);
+  VPR_RETURN_IF_ERROR(check_input("majority_filter", in.width, in.height, in.pixels.size(), size));
+  const int w = in.width, h = in.height, r = size / 2;
+  const int rank = size * size / 2;
+  // Vertical counts per column (clamped rows), then a horizontal window over them.
+  std::vector<int> column_count(size_t(w) * h);
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y != rows.end(); ++y) {
+      int* counts = column_count.data() + size_t(y) * w;
+      for (int x = 0; x < w; ++x) counts[x] = 0;
+      for (int dy = -r; dy <= r; ++dy) {
+        const uint8_t* row = in.pixels.data() + size_t(clamp_index(y + dy, h)) * w;
+        for (int x = 0; x < w; ++x) counts[x] += row[x] != 0;
+      }
+    }
+  });
+  *out = Mask(w, h, 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y != rows.end(); ++y) {
+      const int* counts = column_count.data() + size_t(y) * w;
+      uint8_t* out_row = out->pixels.data() + size_t(y) * w;
+      int ones = 0;
+      for (int dx = -r; dx <= r; ++dx) ones += counts[clamp_index(dx, w)];
+      for (int x = 0; x < w; ++x) {
+        out_row[x] = ones > rank;  // the sorted window's middle element is 1
+        ones += counts[clamp_index(x + r + 1, w)] - counts[clamp_index(x - r, w)];
       }
     }
   });

@@ -23,11 +23,30 @@ struct MeshingStats {
   size_t points_dropped = 0;   // points the reconstruction left out
   size_t holes_filled = 0;
   size_t holes_left = 0;
-  size_t vertices_split = 0;   // non-manifold vertices duplicated
+  size_t vertices_split = 0;   // vertices added by duplicating non-manifold points
 };
 
-// out: the surface; source_point: for each output vertex, the input point it came from.
+// points: n x 3 floats (the AWLOP particles). out: the surface, its vertices a
+// subset of the points (a point is repeated where the surface pinches there),
+// faces counter-clockwise seen from outside; no non-manifold edge or vertex.
+// Holes up to max_hole_edges are filled without new vertices; a closed result
+// bounds a volume (orient_to_bound_a_volume), an open one has each component
+// oriented to positive signed volume about its centroid.
+// source_point: for each output vertex, the index of the input point it is.
+// source_point and stats may be null.
+// INVALID_ARGUMENT: n < 4, a non-finite coordinate, all points coplanar, bad
+// options, or no surface found; INTERNAL if CGAL throws.
 Status mesh_points(const float* points, size_t n, const MeshingOptions& options, Mesh* out,
                    std::vector<uint32_t>* source_point, MeshingStats* stats);
+
+// The repair half of mesh_points, on any triangle soup over `points`: orient
+// (duplicating points at non-manifold edges and vertices), fill holes up to
+// options.max_hole_edges, orient outward, drop unreferenced points.
+// triangles: triangle_count x 3 indices into points. Same outputs as mesh_points.
+// INVALID_ARGUMENT: no triangle, an index >= n, a triangle that repeats a
+// vertex, or a non-finite coordinate.
+Status repair_triangle_soup(const float* points, size_t n, const uint32_t* triangles, size_t triangle_count,
+                            const MeshingOptions& options, Mesh* out, std::vector<uint32_t>* source_point,
+                            MeshingStats* stats);
 
 }  // namespace vpr

@@ -1,9 +1,8 @@
 // Area-weighted principal axes of a triangle surface (see orientation.h).
 #include "orientation.h"
 
-#include <cmath>
-
 #include <Eigen/Dense>
+#include <cmath>
 
 namespace vpr {
 namespace {
@@ -14,7 +13,9 @@ constexpr double kEqualVarianceTolerance = 1e-3;
 // Third moments below this fraction of sigma^3 are treated as zero (symmetric).
 constexpr double kSkewTolerance = 1e-4;
 
-Eigen::Vector3d to_eigen(Vec3d v) { return {v.x, v.y, v.z}; }
+Eigen::Vector3d to_eigen(Vec3d v) {
+  return {v.x, v.y, v.z};
+}
 
 // The model axis least aligned with `normal`, projected onto the plane
 // orthogonal to it. Ties go to the lower axis index, so it is deterministic.
@@ -94,26 +95,27 @@ PrincipalAxes surface_principal_axes(const Mesh& mesh) {
   // should be positive. For a triangle and a linear function u with vertex
   // values u0, u1, u2, the mean of u^3 is h3(u0, u1, u2) / 10, h3 being the
   // complete homogeneous symmetric polynomial of degree 3.
+  double third[2] = {0, 0}, var[2] = {0, 0};
+  for (size_t f = 0; f < nf; ++f) {
+    const Eigen::Vector3d a = to_eigen(load3d(p, mesh.indices[3 * f]) - origin) - mean;
+    const Eigen::Vector3d b = to_eigen(load3d(p, mesh.indices[3 * f + 1]) - origin) - mean;
+    const Eigen::Vector3d c = to_eigen(load3d(p, mesh.indices[3 * f + 2]) - origin) - mean;
+    const double area = 0.5 * (b - a).cross(c - a).norm();
+    if (!(area > 0.0)) continue;
+    for (int k = 0; k < 2; ++k) {
+      const double u0 = axes.col(k).dot(a), u1 = axes.col(k).dot(b), u2 = axes.col(k).dot(c);
+      const double h3 = u0 * u0 * u0 + u1 * u1 * u1 + u2 * u2 * u2 + u0 * u0 * (u1 + u2) + u1 * u1 * (u0 + u2) +
+                        u2 * u2 * (u0 + u1) + u0 * u1 * u2;
+      third[k] += area * h3 / 10.0;
+      // The mean of u^2 over the triangle, for the scale of the skew.
+      var[k] += area * (u0 * u0 + u1 * u1 + u2 * u2 + u0 * u1 + u1 * u2 + u0 * u2) / 6.0;
+    }
+  }
   for (int k = 0; k < 2; ++k) {
     Eigen::Vector3d axis = axes.col(k);
-    double third = 0.0, var = 0.0;
-    for (size_t f = 0; f < nf; ++f) {
-      const Eigen::Vector3d a = to_eigen(load3d(p, mesh.indices[3 * f]) - origin) - mean;
-      const Eigen::Vector3d b = to_eigen(load3d(p, mesh.indices[3 * f + 1]) - origin) - mean;
-      const Eigen::Vector3d c = to_eigen(load3d(p, mesh.indices[3 * f + 2]) - origin) - mean;
-      const double area = 0.5 * (b - a).cross(c - a).norm();
-      if (!(area > 0.0)) continue;
-      const double u0 = axis.dot(a), u1 = axis.dot(b), u2 = axis.dot(c);
-      const double h3 = u0 * u0 * u0 + u1 * u1 * u1 + u2 * u2 * u2 +
-                        u0 * u0 * (u1 + u2) + u1 * u1 * (u0 + u2) + u2 * u2 * (u0 + u1) + u0 * u1 * u2;
-      third += area * h3 / 10.0;
-      var += area * (u0 * u0 + u1 * u1 + u2 * u2 + u0 * u1 + u1 * u2 + u0 * u2) / 6.0;
-    }
-    third /= area_sum;
-    var /= area_sum;
-    const double sigma = std::sqrt(std::max(var, 0.0));
-    if (std::abs(third) > kSkewTolerance * sigma * sigma * sigma) {
-      if (third < 0) axis = -axis;
+    const double sigma = std::sqrt(std::max(var[k] / area_sum, 0.0));
+    if (std::abs(third[k] / area_sum) > kSkewTolerance * sigma * sigma * sigma) {
+      if (third[k] < 0) axis = -axis;
     } else {
       make_largest_component_positive(&axis);
     }

@@ -15,8 +15,8 @@ struct PrincipalAxes {
   // Row-major 3x3 rotation, model space -> aligned frame; row k is the k-th
   // principal axis in model space. Right-handed (det = +1).
   std::array<double, 9> rotation{1, 0, 0, 0, 1, 0, 0, 0, 1};
-  Vec3d centroid;                       // area-weighted surface centroid, model space
-  std::array<double, 3> variances{};    // along each axis, largest first (model units^2)
+  Vec3d centroid;                     // area-weighted surface centroid, model space
+  std::array<double, 3> variances{};  // along each axis, largest first (model units^2)
 };
 
 // Area-weighted PCA of the surface (every triangle integrated exactly, so the

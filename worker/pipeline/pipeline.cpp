@@ -144,8 +144,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& input, const PipelineOptions& 
   const double area = total_area(input);
   const double spacing_out = target_spacing(area, options.target_vertices);
   VPR_RETURN_IF_ERROR(stage.run("saliency_field", cpu, [&]() -> Status {
-    float scale = options.field.depth_scale;
-    if (scale <= 0) scale = float(std::max(1.0, spacing_out / std::max(mean_edge_length(input), 1e-30)));
+    const float scale = resolve_depth_scale(options.field, spacing_out, mean_edge_length(input));
     return cpu::saliency_field(input.positions.data(), input.vertex_count(), saliency_points.data(),
                                saliency_points.size() / 3, options.field, scale, &result.input_importance, ctx);
   }));
@@ -176,9 +175,9 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& input, const PipelineOptions& 
     uniform.adaptive_min_samples = UINT32_MAX;
     VPR_RETURN_IF_ERROR(cpu::sample_triangles(input, ones.data(), counts.data(), offsets.data(), uniform,
                                               &surface_points, &unused, ctx));
-    const double h = options.awlop.support == AwlopSupport::kPaper
-                         ? options.awlop.h_factor * mean_edge_length(input)
-                         : options.awlop.h_factor * spacing_out;
+    VPR_ASSIGN_OR_RETURN(const double h, awlop_support_radius(options.awlop.support, options.awlop.h_factor,
+                                                             mean_edge_length(input), area,
+                                                             options.target_vertices));
     return cpu::awlop(surface_points.data(), surface_points.size() / 3, particles.data(),
                       particle_importance.data(), particle_importance.size(), h, options.awlop, &result.awlop, ctx);
   }));

@@ -1,10 +1,12 @@
 // Silhouette-feature filter (Section III-B, Eq. 4-5), CPU twin. The per-pixel
-// rules are in image_kernels.h (silhouette_at, skeleton_at) for the GPU twin.
+// rules are in image_kernels.h (silhouette_at, skeleton_at, near_thick_part)
+// for the GPU twin.
 #include "silhouette_feature.h"
 
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -14,12 +16,6 @@
 
 namespace vpr::cpu {
 namespace {
-
-// A silhouette pixel of a part at least 5 px thick has a pixel with distance
-// >= kSkeletonMinDistance within this reach (2 sqrt 2 at a square corner, a
-// little more on digitized slanted edges); one farther away sits on a part too
-// thin for Eq. (5) to find a ridge in.
-constexpr float kThinPartReach = 3.0f;
 
 Status check_mask(const char* what, const Mask& m, int w, int h) {
   if (m.width != w || m.height != h || m.pixels.size() != size_t(w) * size_t(h)) {
@@ -76,12 +72,20 @@ Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, i
                             " must be even and in [2, 64] (Eq. 5)");
   }
   const int m = lambda / 2;  // Eq. (5): the kernel spans lambda + 1 pixels, m each way
+  // One array for the kernel: D on the foreground, 0 elsewhere.
+  std::vector<float> masked(silhouette_distance.pixels.size());
+  for (size_t i = 0; i < masked.size(); ++i) {
+    masked[i] = foreground.pixels[i] ? silhouette_distance.pixels[i] : 0.f;
+  }
   *skeleton = Mask(w, h, 0);
-  const float* dist = silhouette_distance.pixels.data();
-  const uint8_t* fg = foreground.pixels.data();
   uint8_t* out = skeleton->pixels.data();
   for_each_row(h, [&](int y) {
-    for (int x = 0; x < w; ++x) out[size_t(y) * w + x] = skeleton_at(dist, fg, w, h, x, y, m) ? 1 : 0;
+    const bool inside_rows = y >= m && y < h - m;
+    for (int x = 0; x < w; ++x) {
+      const bool inside = inside_rows && x >= m && x < w - m;
+      out[size_t(y) * w + x] = (inside ? skeleton_at<false>(masked.data(), w, h, x, y, m)
+                                       : skeleton_at<true>(masked.data(), w, h, x, y, m)) ? 1 : 0;
+    }
   });
   return Status::Ok();
 }
@@ -110,29 +114,29 @@ Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask&
   FloatImage to_skeleton;
   VPR_RETURN_IF_ERROR(distance_transform(skeleton, &to_skeleton, ctx));
 
-  // Parts too thin for the skeleton (see kThinPartReach).
-  Mask core(w, h, 0);
   float max_distance = 0.f;
-  for (size_t i = 0; i < core.pixels.size(); ++i) {
-    if (!foreground.pixels[i]) continue;
-    core.pixels[i] = silhouette_distance.pixels[i] >= kSkeletonMinDistance;
-    max_distance = std::max(max_distance, silhouette_distance.pixels[i]);
+  for (size_t i = 0; i < foreground.pixels.size(); ++i) {
+    if (foreground.pixels[i]) max_distance = std::max(max_distance, silhouette_distance.pixels[i]);
   }
-  FloatImage to_core;
-  VPR_RETURN_IF_ERROR(distance_transform(core, &to_core, ctx));
+  // Parts thinner than about 5 px have no skeleton; they count when the
+  // threshold is above their feature size (< kSkeletonMinDistance).
   const bool thin_parts_count = threshold_px > kSkeletonMinDistance;
 
+  // With no skeleton at all (a tiny or very thin object) the largest distance
+  // to the silhouette stands in for the feature size of the whole view.
   bool any_skeleton = false;
   for (uint8_t s : skeleton.pixels) any_skeleton = any_skeleton || s;
   const bool all_thin = !any_skeleton && max_distance < threshold_px;
 
   *thin = Mask(w, h, 0);
+  const float* dist = silhouette_distance.pixels.data();
+  const uint8_t* fg = foreground.pixels.data();
   for_each_row(h, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const size_t i = size_t(y) * w + x;
       if (!silhouette.pixels[i]) continue;
       thin->pixels[i] = all_thin || to_skeleton.pixels[i] < threshold_px ||
-                        (thin_parts_count && to_core.pixels[i] > kThinPartReach);
+                        (thin_parts_count && !near_thick_part(dist, fg, w, h, x, y));
     }
   });
   return Status::Ok();

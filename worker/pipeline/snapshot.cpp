@@ -6,6 +6,8 @@
 // orientation: flat and two-sided, gray = 255 * (0.15 + 0.85 |n . l|), with l
 // a headlight tilted 25 degrees up and to the left of the view direction so
 // that creases facing the camera still differ in brightness.
+#include "snapshot.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -13,7 +15,6 @@
 #include <string>
 
 #include "gl_functions.h"
-#include "snapshot.h"
 #include "vec3.h"
 
 namespace vpr {
@@ -39,9 +40,9 @@ StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind) {
 namespace gl {
 namespace {
 
-constexpr double kAmbient = 0.15;            // gray floor, so grazing faces stay distinct from background
-constexpr double kLightTiltDegrees = 25.0;   // headlight tilt toward the view's upper left
-constexpr GLenum kMultisample = 0x809D;      // GL_MULTISAMPLE (GL 1.3)
+constexpr double kAmbient = 0.15;           // gray floor, so grazing faces stay distinct from background
+constexpr double kLightTiltDegrees = 25.0;  // headlight tilt toward the view's upper left
+constexpr GLenum kMultisample = 0x809D;     // GL_MULTISAMPLE (GL 1.3)
 // Vertices per glDrawArrays call: keeps any one call well inside driver limits
 // for meshes of tens of millions of faces.
 constexpr GLsizei kDrawChunk = 3 * (1 << 20);
@@ -206,8 +207,7 @@ void max_view_size(const std::vector<View>& views, int* width, int* height) {
   }
 }
 
-Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views,
-                    std::vector<Snapshot>* out) {
+Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out) {
   assert(out != nullptr);
   out->clear();
   const size_t nf = mesh.face_count();
@@ -226,7 +226,7 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   const Vec3d centre{0.5 * (double(box.lo[0]) + box.hi[0]), 0.5 * (double(box.lo[1]) + box.hi[1]),
                      0.5 * (double(box.lo[2]) + box.hi[2])};
   std::vector<float> positions;
-  std::vector<Vec3d> normals;
+  std::vector<Vec3> normals;  // float: at 40M faces the doubles would cost another 0.5 GB
   positions.reserve(9 * nf);
   normals.reserve(nf);
   for (size_t f = 0; f < nf; ++f) {
@@ -236,7 +236,7 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     const Vec3d n = cross(b - a, c - a);
     const double len = norm(n);
     if (!(len > 0.0) || !std::isfinite(len)) continue;  // degenerate: nothing to draw, no normal
-    normals.push_back(n * (1.0 / len));
+    normals.push_back(Vec3{float(n.x / len), float(n.y / len), float(n.z / len)});
     for (const Vec3d& p : {a, b, c}) {
       positions.push_back(float(p.x));
       positions.push_back(float(p.y));
@@ -275,18 +275,19 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   std::vector<float> depth;
   out->reserve(views.size());
   for (const View& view : views) {
-    const Vec3d light = view_light(view);
+    const Vec3d l = view_light(view);
+    const Vec3 light{float(l.x), float(l.y), float(l.z)};
     for (size_t f = 0; f < kept; ++f) {
-      const double shade = std::clamp(kAmbient + (1.0 - kAmbient) * std::abs(dot(normals[f], light)), 0.0, 1.0);
-      const uint8_t g = uint8_t(std::lround(255.0 * shade));
+      const float shade =
+          std::clamp(float(kAmbient) + float(1.0 - kAmbient) * std::abs(dot(normals[f], light)), 0.f, 1.f);
+      const uint8_t g = uint8_t(255.f * shade + 0.5f);
       uint8_t* c = &colors[12 * f];
       for (int k = 0; k < 3; ++k) c[4 * k] = c[4 * k + 1] = c[4 * k + 2] = g;
     }
 
     // view_proj * translate(centre): the positions above are centre-relative.
     Mat4 m = view.view_proj;
-    for (int r = 0; r < 4; ++r)
-      m[12 + r] += m[0 + r] * centre.x + m[4 + r] * centre.y + m[8 + r] * centre.z;
+    for (int r = 0; r < 4; ++r) m[12 + r] += m[0 + r] * centre.x + m[4 + r] * centre.y + m[8 + r] * centre.z;
     gl.MatrixMode(GL_PROJECTION);
     gl.LoadMatrixd(m.data());
     gl.Viewport(0, 0, view.width, view.height);

@@ -24,12 +24,20 @@ struct Snapshot {
   Mask coverage;     // 1 where a surface was drawn
 };
 
+// Holds one GL context. render() may be called from any thread; calls on one
+// renderer are serialized (the context is current only during a call).
 class Renderer {
  public:
   virtual ~Renderer() = default;
-  // "egl (NVIDIA H100)", "egl (llvmpipe)", "osmesa (llvmpipe)": what actually renders.
+  // "<backend>: <GL_RENDERER> (<GL_VENDOR>)", what actually renders, e.g.
+  // "egl: NVIDIA H100 80GB HBM3/PCIe/SSE2 (NVIDIA Corporation)",
+  // "osmesa: llvmpipe (LLVM 15.0.6, 256 bits) (Mesa/X.org)".
   virtual std::string description() const = 0;
   // Renders every view of the mesh; out receives one Snapshot per view.
+  // Shading: flat and two-sided (polygon soups need not be oriented), gray =
+  // 255 * (0.15 + 0.85 |n . l|), n the face normal, l the view direction
+  // tilted 25 degrees toward the image's upper left. Degenerate faces draw
+  // nothing. Out-of-range indices are kInvalidArgument.
   virtual Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out) = 0;
 };
 

@@ -3,32 +3,32 @@
 // product with the inverse view-projection; no ray casting is needed.
 #include "unproject.h"
 
-#include <string>
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+
+#include <string>
 
 #include "vec3.h"
 
 namespace vpr::cpu {
 
-Status unproject_features(const Mask& features, const FloatImage& depth, const View& view,
-                          std::vector<float>* points, const ExecContext& /*ctx*/) {
+Status unproject_features(const Mask& features, const FloatImage& depth, const View& view, std::vector<float>* points,
+                          const ExecContext& /*ctx*/) {
   assert(points != nullptr);
   const int w = depth.width, h = depth.height;
   if (features.width != w || features.height != h)
     return invalid_argument("feature mask is " + std::to_string(features.width) + "x" +
-                            std::to_string(features.height) + " but the depth image is " +
-                            std::to_string(w) + "x" + std::to_string(h));
+                            std::to_string(features.height) + " but the depth image is " + std::to_string(w) + "x" +
+                            std::to_string(h));
   if (view.width != 0 && (view.width != w || view.height != h))
     return invalid_argument("view " + view.name + " is " + std::to_string(view.width) + "x" +
-                            std::to_string(view.height) + " but the depth image is " +
-                            std::to_string(w) + "x" + std::to_string(h));
+                            std::to_string(view.height) + " but the depth image is " + std::to_string(w) + "x" +
+                            std::to_string(h));
   if (w <= 0 || h <= 0) return Status::Ok();
 
   // One buffer per row, concatenated in row order afterwards, so the output is
   // the same for any thread count.
-  std::vector<std::vector<float>> rows(size_t(h));
+  std::vector<std::vector<float>> rows(static_cast<size_t>(h));
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& r) {
     for (int y = r.begin(); y != r.end(); ++y) {
       std::vector<float>& out = rows[size_t(y)];

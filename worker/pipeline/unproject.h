@@ -1,6 +1,7 @@
 // Stage 3 (Section III-C): feature pixels back to 3D through the depth buffer.
 #pragma once
 
+#include <cstddef>  // image.h uses size_t without including it
 #include <vector>
 
 #include "exec_context.h"

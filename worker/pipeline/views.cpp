@@ -19,7 +19,9 @@ namespace {
 
 using Mat3 = std::array<double, 9>;  // row-major
 
-Mat4 identity4() { return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}; }
+Mat4 identity4() {
+  return {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+}
 
 Mat4 multiply(const Mat4& a, const Mat4& b) {  // column-major a * b
   Mat4 r{};
@@ -52,7 +54,9 @@ Vec3d apply_transposed(const Mat3& m, Vec3d v) {
           m[2] * v.x + m[5] * v.y + m[8] * v.z};
 }
 
-Vec3d normalized(Vec3d v) { return v * (1.0 / norm(v)); }
+Vec3d normalized(Vec3d v) {
+  return v * (1.0 / norm(v));
+}
 
 // glOrtho(l, r, b, t, n, f) as a column-major matrix.
 Mat4 ortho(double l, double r, double b, double t, double n, double f) {
@@ -76,12 +80,13 @@ Status check_rotation(const Mat3& r) {
       double d = r[3 * i] * r[3 * j] + r[3 * i + 1] * r[3 * j + 1] + r[3 * i + 2] * r[3 * j + 2];
       worst = std::max(worst, std::abs(d - (i == j ? 1.0 : 0.0)));
     }
-  const double det = r[0] * (r[4] * r[8] - r[5] * r[7]) - r[1] * (r[3] * r[8] - r[5] * r[6]) +
-                     r[2] * (r[3] * r[7] - r[4] * r[6]);
+  const double det =
+      r[0] * (r[4] * r[8] - r[5] * r[7]) - r[1] * (r[3] * r[8] - r[5] * r[6]) + r[2] * (r[3] * r[7] - r[4] * r[6]);
   if (worst > 1e-6 || det < 0)
-    return invalid_argument("user rotation must be orthonormal with determinant +1 (tolerance 1e-6); got "
-                            "R R^T off the identity by " + std::to_string(worst) +
-                            ", det " + std::to_string(det));
+    return invalid_argument(
+        "user rotation must be orthonormal with determinant +1 (tolerance 1e-6); got "
+        "R R^T off the identity by " +
+        std::to_string(worst) + ", det " + std::to_string(det));
   return Status::Ok();
 }
 
@@ -94,9 +99,9 @@ struct Direction {
 // debug output index views by it).
 constexpr int kMaxViews = 14;
 const Direction kDirections[kMaxViews] = {
-    {"+x", {1, 0, 0}},       {"-x", {-1, 0, 0}},      {"+y", {0, 1, 0}},       {"-y", {0, -1, 0}},
-    {"+z", {0, 0, 1}},       {"-z", {0, 0, -1}},      {"+x+y+z", {1, 1, 1}},   {"+x+y-z", {1, 1, -1}},
-    {"+x-y+z", {1, -1, 1}},  {"+x-y-z", {1, -1, -1}}, {"-x+y+z", {-1, 1, 1}},  {"-x+y-z", {-1, 1, -1}},
+    {"+x", {1, 0, 0}},       {"-x", {-1, 0, 0}},       {"+y", {0, 1, 0}},      {"-y", {0, -1, 0}},
+    {"+z", {0, 0, 1}},       {"-z", {0, 0, -1}},       {"+x+y+z", {1, 1, 1}},  {"+x+y-z", {1, 1, -1}},
+    {"+x-y+z", {1, -1, 1}},  {"+x-y-z", {1, -1, -1}},  {"-x+y+z", {-1, 1, 1}}, {"-x+y-z", {-1, 1, -1}},
     {"-x-y+z", {-1, -1, 1}}, {"-x-y-z", {-1, -1, -1}},
 };
 
@@ -213,22 +218,22 @@ Mat4 invert(const Mat4& m) {
            m[12] * m[1] * m[11] + m[12] * m[3] * m[9];
   inv[13] = m[0] * m[9] * m[14] - m[0] * m[10] * m[13] - m[8] * m[1] * m[14] + m[8] * m[2] * m[13] +
             m[12] * m[1] * m[10] - m[12] * m[2] * m[9];
-  inv[2] = m[1] * m[6] * m[15] - m[1] * m[7] * m[14] - m[5] * m[2] * m[15] + m[5] * m[3] * m[14] +
-           m[13] * m[2] * m[7] - m[13] * m[3] * m[6];
+  inv[2] = m[1] * m[6] * m[15] - m[1] * m[7] * m[14] - m[5] * m[2] * m[15] + m[5] * m[3] * m[14] + m[13] * m[2] * m[7] -
+           m[13] * m[3] * m[6];
   inv[6] = -m[0] * m[6] * m[15] + m[0] * m[7] * m[14] + m[4] * m[2] * m[15] - m[4] * m[3] * m[14] -
            m[12] * m[2] * m[7] + m[12] * m[3] * m[6];
   inv[10] = m[0] * m[5] * m[15] - m[0] * m[7] * m[13] - m[4] * m[1] * m[15] + m[4] * m[3] * m[13] +
             m[12] * m[1] * m[7] - m[12] * m[3] * m[5];
   inv[14] = -m[0] * m[5] * m[14] + m[0] * m[6] * m[13] + m[4] * m[1] * m[14] - m[4] * m[2] * m[13] -
             m[12] * m[1] * m[6] + m[12] * m[2] * m[5];
-  inv[3] = -m[1] * m[6] * m[11] + m[1] * m[7] * m[10] + m[5] * m[2] * m[11] - m[5] * m[3] * m[10] -
-           m[9] * m[2] * m[7] + m[9] * m[3] * m[6];
-  inv[7] = m[0] * m[6] * m[11] - m[0] * m[7] * m[10] - m[4] * m[2] * m[11] + m[4] * m[3] * m[10] +
-           m[8] * m[2] * m[7] - m[8] * m[3] * m[6];
-  inv[11] = -m[0] * m[5] * m[11] + m[0] * m[7] * m[9] + m[4] * m[1] * m[11] - m[4] * m[3] * m[9] -
-            m[8] * m[1] * m[7] + m[8] * m[3] * m[5];
-  inv[15] = m[0] * m[5] * m[10] - m[0] * m[6] * m[9] - m[4] * m[1] * m[10] + m[4] * m[2] * m[9] +
-            m[8] * m[1] * m[6] - m[8] * m[2] * m[5];
+  inv[3] = -m[1] * m[6] * m[11] + m[1] * m[7] * m[10] + m[5] * m[2] * m[11] - m[5] * m[3] * m[10] - m[9] * m[2] * m[7] +
+           m[9] * m[3] * m[6];
+  inv[7] = m[0] * m[6] * m[11] - m[0] * m[7] * m[10] - m[4] * m[2] * m[11] + m[4] * m[3] * m[10] + m[8] * m[2] * m[7] -
+           m[8] * m[3] * m[6];
+  inv[11] = -m[0] * m[5] * m[11] + m[0] * m[7] * m[9] + m[4] * m[1] * m[11] - m[4] * m[3] * m[9] - m[8] * m[1] * m[7] +
+            m[8] * m[3] * m[5];
+  inv[15] = m[0] * m[5] * m[10] - m[0] * m[6] * m[9] - m[4] * m[1] * m[10] + m[4] * m[2] * m[9] + m[8] * m[1] * m[6] -
+            m[8] * m[2] * m[5];
   const double det = m[0] * inv[0] + m[1] * inv[4] + m[2] * inv[8] + m[3] * inv[12];
   assert(det != 0.0);
   for (double& v : inv) v /= det;

@@ -16,12 +16,13 @@ namespace vpr {
 
 struct ViewOptions {
   int count = 6;          // 6 (axes) or 14 (axes + 8 diagonals)
-  int resolution = 512;   // square images, resolution x resolution pixels
-  float margin = 0.05f;   // empty border around the model, as a fraction of the image
+  int resolution = 512;   // square images, resolution x resolution pixels, in [16, 8192]
+  float margin = 0.05f;   // empty border around the model, as a fraction of the image, in [0, 0.45)
   // Orientation: the paper uses the model's own axes; we align to the principal
   // axes (PCA, area-weighted) by default, which the paper left as future work.
   bool pca_align = true;
-  // Optional user rotation (row-major 3x3), applied instead of PCA when set.
+  // Optional user rotation (row-major 3x3, model -> aligned, orthonormal with
+  // det +1 within 1e-6), applied instead of PCA when set.
   std::optional<std::array<double, 9>> user_rotation;
 };
 
@@ -29,7 +30,7 @@ struct ViewOptions {
 using Mat4 = std::array<double, 16>;
 
 struct View {
-  std::string name;   // "+x", "-x", ..., "+x+y+z"
+  std::string name;   // side of the aligned model the camera is on: "+x", "-x", ..., "+x+y+z"
   int width = 0;
   int height = 0;
   Mat4 view_proj{};      // model space -> clip space (includes the alignment rotation)
@@ -40,6 +41,13 @@ struct View {
 // Rotation (row-major 3x3) taking model space to the aligned frame.
 std::array<double, 9> alignment_rotation(const Mesh& mesh, const ViewOptions& options);
 
+// Views in the order +x, -x, +y, -y, +z, -z, then +x+y+z, +x+y-z, +x-y+z,
+// +x-y-z, -x+y+z, -x+y-z, -x-y+z, -x-y-z. Image up is the aligned +z (+y for
+// the +-z views). Each frustum is the tight square around the projected
+// vertices, widened so `margin` of the image stays empty on each side; depth
+// spans the model plus 1% of the box diagonal either way.
+// kInvalidArgument for a bad option, an empty or non-finite mesh, a box that is
+// a single point, or a user rotation that is not orthonormal with det +1.
 StatusOr<std::vector<View>> make_views(const Mesh& mesh, const ViewOptions& options);
 
 // Helpers shared with unprojection and tests.

@@ -1,0 +1,291 @@
+// Draco (.drc), the service's wire format. Decoding goes through
+// draco::Decoder after a pre-scan of the header (below); encoding through
+// draco::ExpertEncoder with quantized positions and, optionally, a GENERIC
+// float attribute whose attribute metadata entry "name" is "saliency".
+#include <cstring>
+#include <memory>
+#include <new>
+#include <string>
+
+#include "draco/compression/decode.h"
+#include "draco/compression/expert_encode.h"
+#include "draco/core/decoder_buffer.h"
+#include "draco/core/encoder_buffer.h"
+#include "draco/mesh/mesh.h"
+#include "draco/metadata/geometry_metadata.h"
+#include "io/mesh_io.h"
+#include "io/parsers.h"
+
+namespace vpr {
+namespace io_detail {
+
+namespace {
+
+constexpr const char* kSaliencyName = "saliency";
+// Nesting of sub-metadata that the pre-scan accepts (the encoder writes 0).
+constexpr int kMaxMetadataDepth = 16;
+// Declared faces (and vertices) per byte of input that the pre-scan accepts.
+// The densest real stream measured, a regular 400 x 400 grid at speed 0,
+// holds 39 faces per byte; 1000 leaves a wide margin while keeping a few
+// hostile bytes from making the decoder allocate gigabytes.
+constexpr uint64_t kMaxElementsPerByte = 1000;
+
+// ---- Header pre-scan -------------------------------------------------------
+// draco::Decoder (1.5.5) sizes tables from counts in the stream before it
+// checks them against the data: the edgebreaker corner table from num_faces,
+// metadata entries from their declared size, and it recurses once per level
+// of sub-metadata. A few hostile bytes could therefore ask for gigabytes or
+// overflow the stack. The pre-scan walks the same fields (bitstream 2.2, see
+// point_cloud_decoder.cc, metadata_decoder.cc, mesh_sequential_decoder.cc and
+// mesh_edgebreaker_decoder_impl.cc) and refuses counts beyond MeshLimits or
+// the bytes present, before the decoder allocates anything.
+
+class ByteReader {
+ public:
+  ByteReader(const uint8_t* p, size_t n) : p_(p), end_(p + n) {}
+  bool u8(uint8_t* v) {
+    if (p_ >= end_) return false;
+    *v = *p_++;
+    return true;
+  }
+  // Draco's DecodeVarint for uint32: at most 5 bytes, low 7 bits first, bits
+  // beyond 32 dropped as Draco's shifts drop them.
+  bool varint(uint32_t* v) {
+    uint64_t value = 0;
+    for (int i = 0; i < 5; ++i) {
+      uint8_t b;
+      if (!u8(&b)) return false;
+      value |= uint64_t(b & 0x7f) << (7 * i);
+      if (!(b & 0x80)) {
+        *v = uint32_t(value);
+        return true;
+      }
+    }
+    return false;
+  }
+  bool skip(uint64_t n) {
+    if (uint64_t(end_ - p_) < n) return false;
+    p_ += n;
+    return true;
+  }
+
+ private:
+  const uint8_t* p_;
+  const uint8_t* end_;
+};
+
+Status truncated(const char* what) {
+  return invalid_argument(std::string("Draco: the data ends inside the ") + what + " (truncated or corrupt)");
+}
+
+Status scan_metadata(ByteReader* r, int depth) {
+  if (depth > kMaxMetadataDepth)
+    return invalid_argument("Draco: metadata is nested deeper than " + std::to_string(kMaxMetadataDepth) +
+                            " levels (corrupt data)");
+  uint32_t entries = 0;
+  if (!r->varint(&entries)) return truncated("metadata");
+  for (uint32_t i = 0; i < entries; ++i) {
+    uint8_t name_length = 0;
+    uint32_t value_size = 0;
+    if (!r->u8(&name_length) || !r->skip(name_length) || !r->varint(&value_size)) return truncated("metadata");
+    if (value_size == 0) return invalid_argument("Draco: a metadata entry has an empty value (corrupt data)");
+    if (!r->skip(value_size)) return truncated("metadata");
+  }
+  uint32_t children = 0;
+  if (!r->varint(&children)) return truncated("metadata");
+  for (uint32_t i = 0; i < children; ++i) {
+    uint8_t name_length = 0;
+    if (!r->u8(&name_length) || !r->skip(name_length)) return truncated("metadata");
+    VPR_RETURN_IF_ERROR(scan_metadata(r, depth + 1));
+  }
+  return Status::Ok();
+}
+
+Status check_count(uint32_t count, size_t limit, const char* what) {
+  if (count > limit)
+    return resource_exhausted("Draco: the header declares " + std::to_string(count) + " " + what +
+                              ", the limit is " + std::to_string(limit));
+  return Status::Ok();
+}
+
+Status check_density(uint32_t count, size_t size, const char* what) {
+  if (count > kMaxElementsPerByte * size)
+    return invalid_argument("Draco: the header declares " + std::to_string(count) + " " + what + " in " +
+                            std::to_string(size) + " bytes, more than " + std::to_string(kMaxElementsPerByte) +
+                            " per byte (corrupt data)");
+  return Status::Ok();
+}
+
+Status prescan_draco(const uint8_t* data, size_t size, const MeshLimits& limits) {
+  if (size < 5 || std::memcmp(data, "DRACO", 5) != 0)
+    return invalid_argument("Draco: the data does not start with 'DRACO' (not a Draco file)");
+  ByteReader r(data + 5, size - 5);
+  uint8_t major = 0, minor = 0, type = 0, method = 0, flags_lo = 0, flags_hi = 0;
+  if (!r.u8(&major) || !r.u8(&minor) || !r.u8(&type) || !r.u8(&method) || !r.u8(&flags_lo) || !r.u8(&flags_hi))
+    return truncated("header");
+  if (type == 0)
+    return invalid_argument("Draco: no faces: the input is a point cloud, a triangle mesh or polygon soup is required");
+  if (type != 1) return invalid_argument("Draco: unknown geometry type " + std::to_string(type) + " (corrupt data)");
+  if (major != 2 || minor != 2)
+    return invalid_argument("Draco: bitstream version " + std::to_string(major) + "." + std::to_string(minor) +
+                            " is not supported (supported: 2.2, written by Draco 1.3 and later)");
+  const uint16_t flags = uint16_t(flags_lo | flags_hi << 8);
+  if (flags & 0x8000) {  // METADATA_FLAG_MASK
+    uint32_t attribute_metadata = 0;
+    if (!r.varint(&attribute_metadata)) return truncated("metadata");
+    for (uint32_t i = 0; i < attribute_metadata; ++i) {
+      uint32_t unique_id = 0;
+      if (!r.varint(&unique_id)) return truncated("metadata");
+      VPR_RETURN_IF_ERROR(scan_metadata(&r, 0));
+    }
+    VPR_RETURN_IF_ERROR(scan_metadata(&r, 0));
+  }
+  if (method == 0) {  // MESH_SEQUENTIAL_ENCODING
+    uint32_t faces = 0, points = 0;
+    if (!r.varint(&faces) || !r.varint(&points)) return truncated("connectivity header");
+    VPR_RETURN_IF_ERROR(check_count(faces, limits.max_faces, "faces"));
+    VPR_RETURN_IF_ERROR(check_count(points, limits.max_vertices, "vertices"));
+    VPR_RETURN_IF_ERROR(check_density(faces, size, "faces"));
+    VPR_RETURN_IF_ERROR(check_density(points, size, "vertices"));
+  } else if (method == 1) {  // MESH_EDGEBREAKER_ENCODING
+    uint8_t traversal = 0, attribute_data = 0;
+    uint32_t vertices = 0, faces = 0, symbols = 0, split_symbols = 0;
+    if (!r.u8(&traversal) || !r.varint(&vertices) || !r.varint(&faces) || !r.u8(&attribute_data) ||
+        !r.varint(&symbols) || !r.varint(&split_symbols))
+      return truncated("connectivity header");
+    VPR_RETURN_IF_ERROR(check_count(faces, limits.max_faces, "faces"));
+    VPR_RETURN_IF_ERROR(check_count(vertices, limits.max_vertices, "vertices"));
+    VPR_RETURN_IF_ERROR(check_density(faces, size, "faces"));
+    VPR_RETURN_IF_ERROR(check_density(vertices, size, "vertices"));
+    // Each split symbol is one of the symbols, and there is at most one symbol per face.
+    if (symbols > faces || split_symbols > symbols)
+      return invalid_argument("Draco: inconsistent connectivity header (" + std::to_string(symbols) + " symbols, " +
+                              std::to_string(split_symbols) + " split symbols, " + std::to_string(faces) +
+                              " faces): corrupt data");
+  } else {
+    return invalid_argument("Draco: unknown mesh encoding method " + std::to_string(method) + " (corrupt data)");
+  }
+  return Status::Ok();
+}
+
+// Reads one attribute value per point; false when the mapping or the data is
+// inconsistent.
+bool gather(const draco::PointAttribute& att, uint32_t num_points, int components, float* out) {
+  if (!att.is_mapping_identity() && att.indices_map_size() < num_points) return false;
+  for (uint32_t p = 0; p < num_points; ++p) {
+    const draco::AttributeValueIndex index = att.mapped_index(draco::PointIndex(p));
+    if (index.value() >= att.size()) return false;
+    if (!att.ConvertValue<float>(index, int8_t(components), out + size_t(p) * components)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency) {
+  VPR_RETURN_IF_ERROR(prescan_draco(data, size, limits));
+  draco::DecoderBuffer buffer;
+  buffer.Init(reinterpret_cast<const char*>(data), size);
+  draco::Decoder decoder;
+  auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
+  if (!decoded.ok())
+    return invalid_argument("Draco: cannot decode the mesh (" + decoded.status().error_msg_string() +
+                            "): the data is corrupt or truncated");
+  const std::unique_ptr<draco::Mesh> dm = std::move(decoded).value();
+  if (!dm) return invalid_argument("Draco: the decoder returned no mesh (corrupt data)");
+
+  const uint32_t num_points = dm->num_points();
+  const uint32_t num_faces = dm->num_faces();
+  VPR_RETURN_IF_ERROR(check_count(num_points, limits.max_vertices, "vertices"));
+  VPR_RETURN_IF_ERROR(check_count(num_faces, limits.max_faces, "faces"));
+  const draco::PointAttribute* position = dm->GetNamedAttribute(draco::GeometryAttribute::POSITION);
+  if (!position) return invalid_argument("Draco: the mesh has no POSITION attribute");
+  if (position->num_components() != 3)
+    return invalid_argument("Draco: positions have " + std::to_string(int(position->num_components())) +
+                            " components, 3 are needed");
+
+  Mesh mesh;
+  mesh.positions.resize(size_t(num_points) * 3);
+  if (!gather(*position, num_points, 3, mesh.positions.data()))
+    return invalid_argument("Draco: the position attribute does not cover every point (corrupt data)");
+  mesh.indices.resize(size_t(num_faces) * 3);
+  for (uint32_t f = 0; f < num_faces; ++f) {
+    const draco::Mesh::Face& face = dm->face(draco::FaceIndex(f));
+    for (int k = 0; k < 3; ++k) mesh.indices[3 * size_t(f) + k] = face[k].value();
+  }
+
+  if (saliency) {
+    saliency->clear();
+    const int id = dm->GetAttributeIdByMetadataEntry("name", kSaliencyName);
+    if (id >= 0) {
+      const draco::PointAttribute* att = dm->attribute(id);
+      if (att->num_components() != 1)
+        return invalid_argument("Draco: the saliency attribute has " + std::to_string(int(att->num_components())) +
+                                " components, 1 is expected");
+      saliency->resize(num_points);
+      if (!gather(*att, num_points, 1, saliency->data()))
+        return invalid_argument("Draco: the saliency attribute does not cover every point (corrupt data)");
+    }
+  }
+  return mesh;
+}
+
+}  // namespace io_detail
+
+StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* saliency, const DracoOptions& options) {
+  // Draco's quantizer takes 1..30 bits; speeds run 0..10.
+  if (options.position_bits < 1 || options.position_bits > 30)
+    return invalid_argument("DracoOptions.position_bits is " + std::to_string(options.position_bits) +
+                            ", it must be in 1..30");
+  if (options.saliency_bits < 1 || options.saliency_bits > 30)
+    return invalid_argument("DracoOptions.saliency_bits is " + std::to_string(options.saliency_bits) +
+                            ", it must be in 1..30");
+  if (options.speed < 0 || options.speed > 10)
+    return invalid_argument("DracoOptions.speed is " + std::to_string(options.speed) + ", it must be in 0..10");
+  VPR_RETURN_IF_ERROR(io_detail::check_writable(mesh, saliency));
+  const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
+  if (nv == 0 || nf == 0)
+    return invalid_argument("Draco: cannot encode a mesh with " + std::to_string(nv) + " vertices and " +
+                            std::to_string(nf) + " faces");
+
+  draco::Mesh dm;
+  dm.set_num_points(uint32_t(nv));
+  draco::GeometryAttribute position;
+  position.Init(draco::GeometryAttribute::POSITION, nullptr, 3, draco::DT_FLOAT32, false, sizeof(float) * 3, 0);
+  const int position_id = dm.AddAttribute(position, true, uint32_t(nv));
+  for (size_t i = 0; i < nv; ++i)
+    dm.attribute(position_id)->SetAttributeValue(draco::AttributeValueIndex(uint32_t(i)), &mesh.positions[3 * i]);
+  int saliency_id = -1;
+  if (saliency) {
+    draco::GeometryAttribute generic;
+    generic.Init(draco::GeometryAttribute::GENERIC, nullptr, 1, draco::DT_FLOAT32, false, sizeof(float), 0);
+    saliency_id = dm.AddAttribute(generic, true, uint32_t(nv));
+    for (size_t i = 0; i < nv; ++i)
+      dm.attribute(saliency_id)->SetAttributeValue(draco::AttributeValueIndex(uint32_t(i)), &saliency[i]);
+    auto metadata = std::make_unique<draco::AttributeMetadata>();
+    metadata->AddEntryString("name", io_detail::kSaliencyName);
+    dm.AddAttributeMetadata(saliency_id, std::move(metadata));
+  }
+  dm.SetNumFaces(nf);
+  for (size_t f = 0; f < nf; ++f) {
+    draco::Mesh::Face face;
+    for (int k = 0; k < 3; ++k) face[k] = draco::PointIndex(mesh.indices[3 * f + k]);
+    dm.SetFace(draco::FaceIndex(uint32_t(f)), face);
+  }
+
+  draco::ExpertEncoder encoder(dm);
+  encoder.SetAttributeQuantization(position_id, options.position_bits);
+  if (saliency_id >= 0) encoder.SetAttributeQuantization(saliency_id, options.saliency_bits);
+  encoder.SetSpeedOptions(options.speed, options.speed);
+  draco::EncoderBuffer out;
+  try {
+    const draco::Status status = encoder.EncodeToBuffer(&out);
+    if (!status.ok()) return invalid_argument("Draco encoder: " + status.error_msg_string());
+  } catch (const std::bad_alloc&) {
+    return resource_exhausted("Draco encoder: out of memory for " + std::to_string(nf) + " faces");
+  }
+  const uint8_t* bytes = reinterpret_cast<const uint8_t*>(out.data());
+  return std::vector<uint8_t>(bytes, bytes + out.size());
+}
+
+}  // namespace vpr

@@ -1,0 +1,143 @@
+// Wavefront OBJ: "v x y z [w | r g b]" and "f" lines whose tokens are v,
+// v/vt, v//vn or v/vt/vn, 1-based or negative (relative to the vertices read
+// so far). Polygons become triangle fans; every other line is ignored.
+#include <charconv>
+#include <cstring>
+#include <string>
+
+#include "io/mesh_io.h"
+#include "io/parsers.h"
+
+namespace vpr::io_detail {
+
+namespace {
+
+std::string at_line(size_t line) { return "OBJ line " + std::to_string(line) + ": "; }
+
+// Appends the shortest text that reads back as exactly the same float.
+void append_float(std::string* out, float v) {
+  char buf[32];
+  auto [end, ec] = std::to_chars(buf, buf + sizeof buf, v);
+  (void)ec;  // 32 bytes always hold a float
+  out->append(buf, end);
+}
+
+void append_uint(std::string* out, uint64_t v) {
+  char buf[24];
+  auto [end, ec] = std::to_chars(buf, buf + sizeof buf, v);
+  (void)ec;
+  out->append(buf, end);
+}
+
+}  // namespace
+
+StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& limits) {
+  const char* begin = reinterpret_cast<const char*>(data);
+  const char* end = begin + size;
+  if (size >= 3 && std::memcmp(begin, "\xEF\xBB\xBF", 3) == 0) begin += 3;  // UTF-8 byte order mark
+
+  Mesh mesh;
+  LineReader lines(begin, end);
+  std::string_view line;
+  while (lines.next(&line)) {
+    std::string_view rest = line;
+    const std::string_view key = next_token(&rest);
+    if (key == "v") {
+      float xyz[3];
+      for (int k = 0; k < 3; ++k) {
+        const std::string_view token = next_token(&rest);
+        if (token.empty())
+          return invalid_argument(at_line(lines.line_number()) + "vertex has " + std::to_string(k) +
+                                  " coordinates, 3 are needed");
+        if (!parse_float(token, &xyz[k]))
+          return invalid_argument(at_line(lines.line_number()) + "vertex coordinate " + quote(token) +
+                                  " is not a number");
+      }
+      // A fourth w or r g b colors may follow; they do not change the position.
+      if (mesh.vertex_count() >= limits.max_vertices)
+        return resource_exhausted(at_line(lines.line_number()) + "the file has more than " +
+                                  std::to_string(limits.max_vertices) + " vertices (the limit is " +
+                                  std::to_string(limits.max_vertices) + ")");
+      mesh.positions.insert(mesh.positions.end(), xyz, xyz + 3);
+    } else if (key == "f") {
+      const int64_t nv = int64_t(mesh.vertex_count());
+      uint32_t first = 0, prev = 0;
+      size_t corners = 0;
+      for (std::string_view token = next_token(&rest); !token.empty(); token = next_token(&rest)) {
+        // Only the position index matters: v, v/vt, v//vn, v/vt/vn.
+        const std::string_view vpart = token.substr(0, token.find('/'));
+        int64_t index = 0;
+        if (!parse_int(vpart, &index))
+          return invalid_argument(at_line(lines.line_number()) + "face vertex " + quote(token) +
+                                  " does not start with an integer index");
+        int64_t resolved;
+        if (index > 0) {
+          resolved = index - 1;
+        } else if (index < 0) {
+          resolved = nv + index;  // -1 is the last vertex read so far
+        } else {
+          return invalid_argument(at_line(lines.line_number()) +
+                                  "face index 0 is invalid (OBJ indices start at 1, negative ones count back)");
+        }
+        if (resolved < 0 || resolved >= nv)
+          return invalid_argument(at_line(lines.line_number()) + "face index " + std::to_string(index) +
+                                  " is out of range (the file has " + std::to_string(nv) + " vertices so far)");
+        const uint32_t v = uint32_t(resolved);
+        if (corners == 0) first = v;
+        if (corners >= 2) {
+          if (mesh.face_count() >= limits.max_faces)
+            return resource_exhausted(at_line(lines.line_number()) + "the faces triangulate to more than " +
+                                      std::to_string(limits.max_faces) + " triangles (the limit is " +
+                                      std::to_string(limits.max_faces) + ")");
+          mesh.indices.push_back(first);
+          mesh.indices.push_back(prev);
+          mesh.indices.push_back(v);
+        }
+        prev = v;
+        ++corners;
+      }
+      if (corners < 3)
+        return invalid_argument(at_line(lines.line_number()) + "face has " + std::to_string(corners) +
+                                " vertices, at least 3 are needed");
+    }
+  }
+  return mesh;
+}
+
+std::vector<uint8_t> encode_obj(const Mesh& mesh, const float* saliency) {
+  std::string out;
+  out.reserve(mesh.vertex_count() * (saliency ? 64 : 36) + mesh.face_count() * 24 + 64);
+  out += "# vpremesh: ";
+  append_uint(&out, mesh.vertex_count());
+  out += " vertices, ";
+  append_uint(&out, mesh.face_count());
+  out += saliency ? " triangles, vertex colors show saliency\n" : " triangles\n";
+  for (size_t i = 0; i < mesh.vertex_count(); ++i) {
+    out += "v ";
+    append_float(&out, mesh.positions[3 * i]);
+    out += ' ';
+    append_float(&out, mesh.positions[3 * i + 1]);
+    out += ' ';
+    append_float(&out, mesh.positions[3 * i + 2]);
+    if (saliency) {
+      uint8_t rgb[3];
+      saliency_color(saliency[i], rgb);
+      for (uint8_t c : rgb) {
+        out += ' ';
+        append_float(&out, float(c) / 255.0f);
+      }
+    }
+    out += '\n';
+  }
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    out += 'f';
+    for (int k = 0; k < 3; ++k) {
+      out += ' ';
+      append_uint(&out, uint64_t(mesh.indices[3 * f + k]) + 1);
+    }
+    out += '\n';
+  }
+  return std::vector<uint8_t>(out.begin(), out.end());
+}
+
+}  // namespace vpr::io_detail

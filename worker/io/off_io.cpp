@@ -1,0 +1,159 @@
+// Object File Format (ASCII): an optional [ST][C][N][n]OFF keyword, the counts
+// "#V #F [#E]" (on the keyword's line or the next), #V vertex lines whose first
+// three numbers are the position (normals, colors, texture coordinates after
+// them are ignored), then #F lines "n i0 .. i(n-1) [color]" triangulated as
+// fans. '#' starts a comment anywhere; blank lines are skipped.
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "io/parsers.h"
+
+namespace vpr::io_detail {
+
+namespace {
+
+// Lines with comments removed, blank ones skipped.
+class ContentLines {
+ public:
+  ContentLines(const char* begin, const char* end) : lines_(begin, end) {}
+  bool next(std::string_view* line) {
+    std::string_view raw;
+    while (lines_.next(&raw)) {
+      const size_t hash = raw.find('#');
+      if (hash != std::string_view::npos) raw = raw.substr(0, hash);
+      raw = trim(raw);
+      if (!raw.empty()) {
+        *line = raw;
+        return true;
+      }
+    }
+    return false;
+  }
+  size_t line_number() const { return lines_.line_number(); }
+
+ private:
+  LineReader lines_;
+};
+
+std::string at_line(size_t line) { return "OFF line " + std::to_string(line) + ": "; }
+
+// "OFF", "COFF", "NOFF", "CNOFF", "STOFF", "4OFF", "nOFF" ...
+bool is_off_keyword(std::string_view token) {
+  if (token.size() < 3 || token.substr(token.size() - 3) != "OFF") return false;
+  for (char c : token.substr(0, token.size() - 3)) {
+    if (std::strchr("STCN4n", c) == nullptr) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& limits) {
+  const char* begin = reinterpret_cast<const char*>(data);
+  const char* end = begin + size;
+  if (size >= 3 && std::memcmp(begin, "\xEF\xBB\xBF", 3) == 0) begin += 3;
+  ContentLines lines(begin, end);
+
+  std::string_view line;
+  if (!lines.next(&line)) return invalid_argument("OFF: the file has no header and no counts (only blanks or comments)");
+  std::string_view rest = line;
+  std::string_view first = next_token(&rest);
+  if (is_off_keyword(first)) {
+    const std::string_view prefix = first.substr(0, first.size() - 3);
+    if (prefix.find('4') != std::string_view::npos)
+      return invalid_argument(at_line(lines.line_number()) + quote(first) + ": 4D vertices are not supported");
+    if (trim(rest).substr(0, 6) == "BINARY")
+      return invalid_argument(at_line(lines.line_number()) + "binary OFF is not supported (use ASCII OFF, PLY or STL)");
+    if (prefix.find('n') != std::string_view::npos) {
+      // nOFF: the vertex dimension comes first.
+      if (trim(rest).empty() && !lines.next(&rest))
+        return invalid_argument("OFF: file ends before the vertex dimension of " + quote(first));
+      const std::string_view dim = next_token(&rest);
+      int64_t d = 0;
+      if (!parse_int(dim, &d) || d != 3)
+        return invalid_argument(at_line(lines.line_number()) + "vertex dimension " + quote(dim) +
+                                " is not supported (only 3)");
+    }
+    if (trim(rest).empty() && !lines.next(&rest)) return invalid_argument("OFF: file ends before the counts line");
+  } else {
+    rest = line;  // no keyword: the first line holds the counts
+  }
+
+  const size_t counts_line = lines.line_number();
+  int64_t counts[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    const std::string_view token = next_token(&rest);
+    if (!parse_int(token, &counts[k]) || counts[k] < 0)
+      return invalid_argument(at_line(counts_line) + "expected the counts '#vertices #faces [#edges]', found " +
+                              quote(token.empty() ? std::string_view("end of line") : token));
+  }
+  const uint64_t nv = uint64_t(counts[0]), nf = uint64_t(counts[1]);
+  if (nv > limits.max_vertices)
+    return resource_exhausted("OFF: the header declares " + std::to_string(nv) + " vertices, the limit is " +
+                              std::to_string(limits.max_vertices));
+  if (nf > limits.max_faces)
+    return resource_exhausted("OFF: the header declares " + std::to_string(nf) + " faces, the limit is " +
+                              std::to_string(limits.max_faces));
+
+  Mesh mesh;
+  // A vertex line is at least "0 0 0\n" (6 bytes), a face line "3 0 0 0\n".
+  mesh.positions.reserve(3 * std::min<uint64_t>(nv, size / 6 + 1));
+  mesh.indices.reserve(3 * std::min<uint64_t>(nf, size / 8 + 1));
+  for (uint64_t i = 0; i < nv; ++i) {
+    if (!lines.next(&line))
+      return invalid_argument("OFF: file ends after " + std::to_string(i) + " of " + std::to_string(nv) + " vertices");
+    rest = line;
+    for (int k = 0; k < 3; ++k) {
+      const std::string_view token = next_token(&rest);
+      float v = 0;
+      if (token.empty())
+        return invalid_argument(at_line(lines.line_number()) + "vertex " + std::to_string(i) + " has " +
+                                std::to_string(k) + " coordinates, 3 are needed");
+      if (!parse_float(token, &v))
+        return invalid_argument(at_line(lines.line_number()) + "vertex coordinate " + quote(token) + " is not a number");
+      mesh.positions.push_back(v);
+    }
+  }
+  for (uint64_t i = 0; i < nf; ++i) {
+    if (!lines.next(&line))
+      return invalid_argument("OFF: file ends after " + std::to_string(i) + " of " + std::to_string(nf) + " faces");
+    const size_t n_line = lines.line_number();
+    rest = line;
+    const std::string_view count_token = next_token(&rest);
+    int64_t n = 0;
+    if (!parse_int(count_token, &n))
+      return invalid_argument(at_line(n_line) + "face vertex count " + quote(count_token) + " is not an integer");
+    if (n < 3)
+      return invalid_argument(at_line(n_line) + "face has " + std::to_string(n) + " vertices, at least 3 are needed");
+    uint32_t first = 0, prev = 0;
+    for (int64_t k = 0; k < n; ++k) {
+      const std::string_view token = next_token(&rest);
+      if (token.empty())
+        return invalid_argument(at_line(n_line) + "face announces " + std::to_string(n) + " vertices but lists " +
+                                std::to_string(k));
+      int64_t index = 0;
+      if (!parse_int(token, &index))
+        return invalid_argument(at_line(n_line) + "face index " + quote(token) + " is not an integer");
+      if (index < 0 || uint64_t(index) >= nv)
+        return invalid_argument(at_line(n_line) + "face index " + std::to_string(index) +
+                                " is out of range (the file has " + std::to_string(nv) + " vertices)");
+      const uint32_t v = uint32_t(index);
+      if (k == 0) first = v;
+      if (k >= 2) {
+        if (mesh.face_count() >= limits.max_faces)
+          return resource_exhausted(at_line(n_line) + "the faces triangulate to more than " +
+                                    std::to_string(limits.max_faces) + " triangles (the limit is " +
+                                    std::to_string(limits.max_faces) + ")");
+        mesh.indices.push_back(first);
+        mesh.indices.push_back(prev);
+        mesh.indices.push_back(v);
+      }
+      prev = v;
+    }
+    // Anything after the indices is a face color; ignored.
+  }
+  return mesh;
+}
+
+}  // namespace vpr::io_detail

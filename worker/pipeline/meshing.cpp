@@ -1,0 +1,272 @@
+// Stage 7: mesh the optimized points. The paper uses Tight CoCone; we use CGAL's
+// Advancing Front Surface Reconstruction (Cohen-Steiner and Da, 2004), which
+// interpolates the points as Tight CoCone does, then repair its facets into an
+// oriented 2-manifold with Polygon_mesh_processing. No step adds a point: every
+// output vertex is one of the input points (duplicated where the surface
+// pinches), so the sample density AWLOP produced is the mesh's.
+#include "meshing.h"
+
+#include <CGAL/Advancing_front_surface_reconstruction.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/connected_components.h>
+#include <CGAL/Polygon_mesh_processing/manifoldness.h>
+#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/orientation.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
+#include <CGAL/Surface_mesh.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <exception>
+#include <iterator>
+#include <map>
+#include <new>
+#include <string>
+#include <vector>
+
+namespace vpr {
+namespace {
+
+namespace PMP = CGAL::Polygon_mesh_processing;
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = Kernel::Point_3;
+using SurfaceMesh = CGAL::Surface_mesh<Point>;
+using VertexIndex = SurfaceMesh::Vertex_index;
+using FaceIndex = SurfaceMesh::Face_index;
+using HalfedgeIndex = SurfaceMesh::Halfedge_index;
+using Triangle = std::array<std::size_t, 3>;
+
+// Input order is kept: CGAL point i is input point i, so soup indices are input indices.
+Status to_cgal_points(const float* points, size_t n, std::vector<Point>* out) {
+  if (n > size_t(UINT32_MAX)) return invalid_argument("meshing takes at most 2^32 - 1 points");
+  out->resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const float* p = points + 3 * i;
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      return invalid_argument("meshing input point " + std::to_string(i) + " has a non-finite coordinate");
+    (*out)[i] = Point(p[0], p[1], p[2]);
+  }
+  return Status::Ok();
+}
+
+// True when some four points span a volume (exact predicates). AFSR needs a
+// 3D Delaunay triangulation; on a plane, a line or a point it has nothing to do.
+bool spans_volume(const std::vector<Point>& p) {
+  const size_t n = p.size();
+  size_t b = 1;
+  while (b < n && p[b] == p[0]) ++b;
+  size_t c = b + 1;
+  while (c < n && CGAL::collinear(p[0], p[b], p[c])) ++c;
+  for (size_t d = c + 1; d < n; ++d)
+    if (CGAL::orientation(p[0], p[b], p[c], p[d]) != CGAL::COPLANAR) return true;
+  return false;
+}
+
+// Boundary cycles of the mesh: one border halfedge and the edge count of each.
+std::vector<std::pair<HalfedgeIndex, size_t>> boundary_cycles(const SurfaceMesh& sm) {
+  std::vector<std::pair<HalfedgeIndex, size_t>> cycles;
+  std::vector<bool> seen(sm.number_of_halfedges(), false);
+  for (HalfedgeIndex h : sm.halfedges()) {
+    if (!sm.is_border(h) || seen[h.idx()]) continue;
+    size_t length = 0;
+    HalfedgeIndex g = h;
+    do {
+      seen[g.idx()] = true;
+      ++length;
+      g = sm.next(g);
+    } while (g != h);
+    cycles.emplace_back(h, length);
+  }
+  return cycles;
+}
+
+// Signed volume of a set of faces, measured from `origin`: positive when the
+// faces wind counter-clockwise seen from outside (for a closed surface the
+// origin does not matter; for one with small holes a central origin keeps the
+// missing cones small).
+double signed_volume(const SurfaceMesh& sm, const std::vector<FaceIndex>& faces, const Point& origin) {
+  double volume = 0;
+  for (FaceIndex f : faces) {
+    HalfedgeIndex h = sm.halfedge(f);
+    const Point& a = sm.point(sm.source(h));
+    const Point& b = sm.point(sm.target(h));
+    const Point& c = sm.point(sm.target(sm.next(h)));
+    volume += CGAL::scalar_product(a - origin, CGAL::cross_product(b - origin, c - origin)) / 6.0;
+  }
+  return volume;
+}
+
+// Open surfaces: per connected component, make the faces wind outward (positive
+// signed volume about the component's centroid). Heuristic, but right for a
+// closed shape with small unfilled holes, which is what AFSR leaves behind.
+void orient_open_components(SurfaceMesh& sm) {
+  auto component = sm.add_property_map<FaceIndex, size_t>("f:vpr_component", 0).first;
+  const size_t count = PMP::connected_components(sm, component);
+  std::vector<std::vector<FaceIndex>> faces(count);
+  std::vector<std::array<double, 4>> centroid(count, {0, 0, 0, 0});
+  for (FaceIndex f : sm.faces()) {
+    faces[component[f]].push_back(f);
+    for (VertexIndex v : sm.vertices_around_face(sm.halfedge(f))) {
+      const Point& p = sm.point(v);
+      auto& c = centroid[component[f]];
+      c[0] += p.x(); c[1] += p.y(); c[2] += p.z(); c[3] += 1;
+    }
+  }
+  for (size_t c = 0; c < count; ++c) {
+    const auto& s = centroid[c];
+    const Point origin(s[0] / s[3], s[1] / s[3], s[2] / s[3]);
+    if (signed_volume(sm, faces[c], origin) < 0) PMP::reverse_face_orientations(faces[c], sm);
+  }
+  sm.remove_property_map(component);
+}
+
+// soup_points: the n input points in input order (as CGAL points); soup: triangles over them.
+Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points, std::vector<Triangle> soup,
+                   const MeshingOptions& options, Mesh* out, std::vector<uint32_t>* source_point,
+                   MeshingStats* stats) {
+  // Consistent orientation; points are duplicated (appended after the n inputs)
+  // wherever the facets meet along a non-manifold edge or vertex.
+  PMP::orient_polygon_soup(soup_points, soup);
+  size_t split = soup_points.size() - n;
+
+  SurfaceMesh sm;
+  PMP::polygon_soup_to_polygon_mesh(soup_points, soup, sm);  // vertex i = soup point i
+  // Which input point each vertex is. Vertices made by duplication (soup points
+  // past n, and those added below) get theirs by exact position lookup at the end.
+  auto source = sm.add_property_map<VertexIndex, uint32_t>("v:vpr_source", UINT32_MAX).first;
+  for (VertexIndex v : sm.vertices())
+    if (v.idx() < n) source[v] = uint32_t(v.idx());
+  split += PMP::duplicate_non_manifold_vertices(sm);  // triangulate_hole needs manifold borders
+
+  // Close small holes with the hole's own vertices (no refinement: the
+  // vertices are the AWLOP particles and stay exactly those).
+  size_t filled = 0, left = 0;
+  for (const auto& [border, length] : boundary_cycles(sm)) {
+    if (length > options.max_hole_edges) { ++left; continue; }
+    std::vector<FaceIndex> patch;
+    PMP::triangulate_hole(sm, border, std::back_inserter(patch));
+    if (patch.empty()) ++left; else ++filled;
+  }
+  split += PMP::duplicate_non_manifold_vertices(sm);
+
+  // Drop the points the reconstruction left out (repeated points, outliers):
+  // orient_to_bound_a_volume also requires a mesh without isolated vertices.
+  for (VertexIndex v : sm.vertices())
+    if (sm.is_isolated(v)) sm.remove_vertex(v);
+  sm.collect_garbage();  // compact indices; property maps follow
+
+  if (CGAL::is_closed(sm)) {
+    PMP::orient_to_bound_a_volume(sm);  // outward; inner shells of nested components inward
+  } else {
+    orient_open_components(sm);
+  }
+
+  std::map<std::array<float, 3>, uint32_t> input_index;  // built only if duplicates need it
+  for (VertexIndex v : sm.vertices()) {
+    if (source[v] != UINT32_MAX) continue;
+    if (input_index.empty())
+      for (size_t i = n; i-- > 0;)  // reverse: the lowest index wins for repeated points
+        input_index[{points[3 * i], points[3 * i + 1], points[3 * i + 2]}] = uint32_t(i);
+    const Point& p = sm.point(v);  // a copy of an input float triple: exact
+    source[v] = input_index.at({float(p.x()), float(p.y()), float(p.z())});
+  }
+
+  // Flatten: after collect_garbage vertex v has index v.idx().
+  Mesh mesh;
+  std::vector<uint32_t> sources(sm.number_of_vertices());
+  std::vector<bool> used(n, false);
+  mesh.positions.reserve(3 * sm.number_of_vertices());
+  for (VertexIndex v : sm.vertices()) {
+    const uint32_t s = source[v];
+    sources[v.idx()] = s;
+    used[s] = true;
+    mesh.positions.insert(mesh.positions.end(), points + 3 * s, points + 3 * s + 3);
+  }
+  mesh.indices.reserve(3 * sm.number_of_faces());
+  for (FaceIndex f : sm.faces())
+    for (VertexIndex v : sm.vertices_around_face(sm.halfedge(f))) mesh.indices.push_back(uint32_t(v.idx()));
+
+  if (stats) {
+    *stats = MeshingStats{};
+    stats->points_in = n;
+    stats->vertices_out = sources.size();
+    stats->points_dropped = size_t(std::count(used.begin(), used.end(), false));
+    stats->holes_filled = filled;
+    stats->holes_left = left;
+    stats->vertices_split = split;
+  }
+  *out = std::move(mesh);
+  if (source_point) *source_point = std::move(sources);
+  return Status::Ok();
+}
+
+Status mesh_points_impl(const float* points, size_t n, const MeshingOptions& options, Mesh* out,
+                        std::vector<uint32_t>* source_point, MeshingStats* stats) {
+  if (n < 4) return invalid_argument("meshing needs at least 4 points, got " + std::to_string(n));
+  if (!(options.radius_ratio_bound > 0) || !std::isfinite(options.radius_ratio_bound))
+    return invalid_argument("meshing radius_ratio_bound must be positive, got " +
+                            std::to_string(options.radius_ratio_bound));
+  if (!(options.beta > 0) || !std::isfinite(options.beta))
+    return invalid_argument("meshing beta must be positive, got " + std::to_string(options.beta));
+
+  std::vector<Point> soup_points;
+  VPR_RETURN_IF_ERROR(to_cgal_points(points, n, &soup_points));
+  if (!spans_volume(soup_points))
+    return invalid_argument("meshing needs points that span a volume; all " + std::to_string(n) +
+                            " points are coplanar");
+
+  std::vector<Triangle> soup;
+  CGAL::advancing_front_surface_reconstruction(soup_points.begin(), soup_points.end(), std::back_inserter(soup),
+                                               options.radius_ratio_bound, options.beta);
+  if (soup.empty())
+    return invalid_argument("meshing: the reconstruction found no surface through the " + std::to_string(n) +
+                            " points");
+
+  return repair_soup(points, n, std::move(soup_points), std::move(soup), options, out, source_point, stats);
+}
+
+// CGAL may throw (failed assertions in debug builds, failed constructions);
+// bad input must not end the process.
+template <class Fn>
+Status guarded(size_t n, Fn fn) {
+  try {
+    return fn();
+  } catch (const std::bad_alloc&) {
+    return resource_exhausted("meshing ran out of memory on " + std::to_string(n) + " points");
+  } catch (const std::exception& e) {
+    return internal_error(std::string("meshing failed inside CGAL: ") + e.what());
+  }
+}
+
+}  // namespace
+
+Status mesh_points(const float* points, size_t n, const MeshingOptions& options, Mesh* out,
+                   std::vector<uint32_t>* source_point, MeshingStats* stats) {
+  return guarded(n, [&] { return mesh_points_impl(points, n, options, out, source_point, stats); });
+}
+
+Status repair_triangle_soup(const float* points, size_t n, const uint32_t* triangles, size_t triangle_count,
+                            const MeshingOptions& options, Mesh* out, std::vector<uint32_t>* source_point,
+                            MeshingStats* stats) {
+  if (triangle_count == 0) return invalid_argument("soup repair needs at least one triangle, got 0");
+  std::vector<Triangle> soup(triangle_count);
+  for (size_t t = 0; t < triangle_count; ++t) {
+    const uint32_t* v = triangles + 3 * t;
+    for (int c = 0; c < 3; ++c)
+      if (v[c] >= n)
+        return invalid_argument("soup triangle " + std::to_string(t) + " references point " + std::to_string(v[c]) +
+                                " but there are " + std::to_string(n) + " points");
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0])
+      return invalid_argument("soup triangle " + std::to_string(t) + " repeats a vertex");
+    soup[t] = {v[0], v[1], v[2]};
+  }
+  return guarded(n, [&]() -> Status {
+    std::vector<Point> soup_points;
+    VPR_RETURN_IF_ERROR(to_cgal_points(points, n, &soup_points));
+    return repair_soup(points, n, std::move(soup_points), std::move(soup), options, out, source_point, stats);
+  });
+}
+
+}  // namespace vpr
