@@ -71,6 +71,7 @@ nlohmann::json report_json(const PipelineResult& result, const RunSummary& s) {
         {"points_dropped", result.meshing.points_dropped},
         {"holes_filled", result.meshing.holes_filled},
         {"holes_left", result.meshing.holes_left},
+        {"bridges_removed", result.meshing.bridges_removed},
         {"vertices_split", result.meshing.vertices_split}}},
   };
 }

@@ -11,6 +11,7 @@
 #include <CGAL/Polygon_mesh_processing/connected_components.h>
 #include <CGAL/Polygon_mesh_processing/manifoldness.h>
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
+#include <CGAL/boost/graph/Euler_operations.h>
 #include <CGAL/Polygon_mesh_processing/orientation.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
@@ -122,6 +123,31 @@ void orient_open_components(SurfaceMesh& sm) {
   sm.remove_property_map(component);
 }
 
+double median_edge_length(const SurfaceMesh& sm) {
+  std::vector<double> lengths;
+  lengths.reserve(sm.number_of_edges());
+  for (auto e : sm.edges())
+    lengths.push_back(std::sqrt(CGAL::squared_distance(sm.point(sm.vertex(e, 0)), sm.point(sm.vertex(e, 1)))));
+  if (lengths.empty()) return 0.0;
+  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
+  return lengths[lengths.size() / 2];
+}
+
+double longest_edge(const SurfaceMesh& sm, const std::vector<FaceIndex>& faces) {
+  double longest = 0.0;
+  for (FaceIndex f : faces)
+    for (auto h : sm.halfedges_around_face(sm.halfedge(f)))
+      longest = std::max(longest, std::sqrt(CGAL::squared_distance(sm.point(sm.source(h)), sm.point(sm.target(h)))));
+  return longest;
+}
+
+// Each triangle rotated to start at its smallest index (orientation kept),
+// then the triangles sorted: one order for one set of faces.
+void canonical_order(std::vector<Triangle>* triangles) {
+  for (Triangle& t : *triangles) std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+  std::sort(triangles->begin(), triangles->end());
+}
+
 // soup_points: the n input points in input order (as CGAL points); soup: triangles over them.
 Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points, std::vector<Triangle> soup,
                    const MeshingOptions& options, Mesh* out, std::vector<uint32_t>* source_point,
@@ -142,12 +168,29 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
 
   // Close small holes with the hole's own vertices (no refinement: the
   // vertices are the AWLOP particles and stay exactly those).
+  // A face with an edge much longer than the median bridges separate parts:
+  // AFSR fans a lone particle on a thin tip to the body it faces. Such faces
+  // are removed here, so that the hole they leave is closed below from its
+  // own short edges. A hole patch with such an edge is likewise taken out again
+  // and the hole stays open.
+  const double max_edge = options.max_edge_ratio * median_edge_length(sm);
+  std::vector<FaceIndex> bridges;
+  for (FaceIndex f : sm.faces())
+    if (longest_edge(sm, {f}) > max_edge) bridges.push_back(f);
+  for (FaceIndex f : bridges) CGAL::Euler::remove_face(sm.halfedge(f), sm);
+  if (!bridges.empty()) split += PMP::duplicate_non_manifold_vertices(sm);
   size_t filled = 0, left = 0;
   for (const auto& [border, length] : boundary_cycles(sm)) {
     if (length > options.max_hole_edges) { ++left; continue; }
     std::vector<FaceIndex> patch;
     PMP::triangulate_hole(sm, border, std::back_inserter(patch));
-    if (patch.empty()) ++left; else ++filled;
+    if (patch.empty()) { ++left; continue; }
+    if (longest_edge(sm, patch) > max_edge) {
+      for (FaceIndex f : patch) CGAL::Euler::remove_face(sm.halfedge(f), sm);
+      ++left;
+      continue;
+    }
+    ++filled;
   }
   split += PMP::duplicate_non_manifold_vertices(sm);
 
@@ -184,9 +227,18 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
     used[s] = true;
     mesh.positions.insert(mesh.positions.end(), points + 3 * s, points + 3 * s + 3);
   }
-  mesh.indices.reserve(3 * sm.number_of_faces());
-  for (FaceIndex f : sm.faces())
-    for (VertexIndex v : sm.vertices_around_face(sm.halfedge(f))) mesh.indices.push_back(uint32_t(v.idx()));
+  std::vector<Triangle> faces;
+  faces.reserve(sm.number_of_faces());
+  for (FaceIndex f : sm.faces()) {
+    Triangle t;
+    int c = 0;
+    for (VertexIndex v : sm.vertices_around_face(sm.halfedge(f))) t[c++] = v.idx();
+    faces.push_back(t);
+  }
+  canonical_order(&faces);
+  mesh.indices.reserve(3 * faces.size());
+  for (const Triangle& t : faces)
+    for (int c = 0; c < 3; ++c) mesh.indices.push_back(uint32_t(t[c]));
 
   if (stats) {
     *stats = MeshingStats{};
@@ -196,6 +248,7 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
     stats->holes_filled = filled;
     stats->holes_left = left;
     stats->vertices_split = split;
+    stats->bridges_removed = bridges.size();
   }
   *out = std::move(mesh);
   if (source_point) *source_point = std::move(sources);
@@ -223,6 +276,9 @@ Status mesh_points_impl(const float* points, size_t n, const MeshingOptions& opt
   if (soup.empty())
     return invalid_argument("meshing: the reconstruction found no surface through the " + std::to_string(n) +
                             " points");
+  // AFSR emits the same facets in an order that depends on memory addresses;
+  // sort them so the repair below, and the result, are reproducible.
+  canonical_order(&soup);
 
   return repair_soup(points, n, std::move(soup_points), std::move(soup), options, out, source_point, stats);
 }
