@@ -87,6 +87,15 @@ std::string_view strip_plus(std::string_view t) {
 
 }  // namespace
 
+Status push_fan_triangle(Mesh& mesh, uint32_t first, uint32_t prev, uint32_t v, const MeshLimits& limits,
+                         const std::string& where) {
+  if (mesh.face_count() >= limits.max_faces)
+    return resource_exhausted(where + "the faces triangulate to more than " + std::to_string(limits.max_faces) +
+                              " triangles (the limit is " + std::to_string(limits.max_faces) + ")");
+  mesh.indices.insert(mesh.indices.end(), {first, prev, v});
+  return Status::Ok();
+}
+
 bool parse_double(std::string_view token, double* out) {
   token = strip_plus(token);
   if (token.empty()) return false;

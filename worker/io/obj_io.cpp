@@ -84,15 +84,8 @@ StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& lim
                                   " is out of range (the file has " + std::to_string(nv) + " vertices so far)");
         const uint32_t v = uint32_t(resolved);
         if (corners == 0) first = v;
-        if (corners >= 2) {
-          if (mesh.face_count() >= limits.max_faces)
-            return resource_exhausted(at_line(lines.line_number()) + "the faces triangulate to more than " +
-                                      std::to_string(limits.max_faces) + " triangles (the limit is " +
-                                      std::to_string(limits.max_faces) + ")");
-          mesh.indices.push_back(first);
-          mesh.indices.push_back(prev);
-          mesh.indices.push_back(v);
-        }
+        if (corners >= 2)
+          VPR_RETURN_IF_ERROR(push_fan_triangle(mesh, first, prev, v, limits, at_line(lines.line_number())));
         prev = v;
         ++corners;
       }

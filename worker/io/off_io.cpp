@@ -140,15 +140,7 @@ StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& lim
                                 " is out of range (the file has " + std::to_string(nv) + " vertices)");
       const uint32_t v = uint32_t(index);
       if (k == 0) first = v;
-      if (k >= 2) {
-        if (mesh.face_count() >= limits.max_faces)
-          return resource_exhausted(at_line(n_line) + "the faces triangulate to more than " +
-                                    std::to_string(limits.max_faces) + " triangles (the limit is " +
-                                    std::to_string(limits.max_faces) + ")");
-        mesh.indices.push_back(first);
-        mesh.indices.push_back(prev);
-        mesh.indices.push_back(v);
-      }
+      if (k >= 2) VPR_RETURN_IF_ERROR(push_fan_triangle(mesh, first, prev, v, limits, at_line(n_line)));
       prev = v;
     }
     // Anything after the indices is a face color; ignored.

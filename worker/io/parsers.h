@@ -84,6 +84,11 @@ bool parse_int(std::string_view token, int64_t* out);
 // Token for messages: quoted, cut to 32 characters, non-printable bytes escaped.
 std::string quote(std::string_view token);
 
+// Fan triangulation of a polygon: corner k >= 2 adds (first, prev, v). Fails
+// with RESOURCE_EXHAUSTED, prefixed by `where`, when the face limit is reached.
+Status push_fan_triangle(Mesh& mesh, uint32_t first, uint32_t prev, uint32_t v, const MeshLimits& limits,
+                         const std::string& where);
+
 // ---- Writers and files (encode_* in their format's file, files in mesh_io.cpp)
 
 // Binary little-endian PLY: x y z float [saliency float, red green blue uchar],

@@ -385,15 +385,7 @@ Status read_body(Source& src, const PlyHeader& header, bool ascii, const MeshLim
                                       " vertices");
             const uint32_t v = uint32_t(index);
             if (k == 0) first = v;
-            if (k >= 2) {
-              if (mesh->face_count() >= limits.max_faces)
-                return resource_exhausted("PLY: the faces triangulate to more than " +
-                                          std::to_string(limits.max_faces) + " triangles (the limit is " +
-                                          std::to_string(limits.max_faces) + ")");
-              mesh->indices.push_back(first);
-              mesh->indices.push_back(prev);
-              mesh->indices.push_back(v);
-            }
+            if (k >= 2) VPR_RETURN_IF_ERROR(push_fan_triangle(*mesh, first, prev, v, limits, "PLY: "));
             prev = v;
           }
         }
