@@ -74,6 +74,14 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
   EXPECT_EQ(saliency->size(), mesh->vertex_count());
   EXPECT_EQ(mesh_quality(*mesh).non_manifold_edges, 0u);
 
+  // The Draco result is itself a valid input (the service's wire format).
+  CliRun again = run_cli("local " + out + " -o " + path("again.obj") + " --target-vertices 400 --json");
+  ASSERT_EQ(again.code, 0) << again.out;
+  EXPECT_EQ(nlohmann::json::parse(again.out)["input"]["vertices"], v);
+  auto obj = read_mesh(path("again.obj"));
+  ASSERT_TRUE(obj.ok()) << obj.status().to_string();
+  EXPECT_NEAR(double(obj->vertex_count()), 400.0, 8.0);
+
   auto field = read_saliency(path("field.ply"));
   ASSERT_TRUE(field.ok());
   EXPECT_EQ(field->size(), 2930u);
