@@ -7,7 +7,7 @@ namespace {
 
 std::string row(const std::string& name, const std::string& device, double ms) {
   char line[160];
-  std::snprintf(line, sizeof line, "%-16s %-44.44s %10.1f\n", name.c_str(), device.c_str(), ms);
+  std::snprintf(line, sizeof line, "%-16s %-52.52s %10.1f\n", name.c_str(), device.c_str(), ms);
   return line;
 }
 
@@ -20,7 +20,7 @@ double deviation_percent(const RunSummary& s) {
 std::string format_stage_table(const PipelineResult& result, const RunSummary& s) {
   std::string out;
   char header[160];
-  std::snprintf(header, sizeof header, "%-16s %-44s %10s\n", "stage", "device", "ms");
+  std::snprintf(header, sizeof header, "%-16s %-52s %10s\n", "stage", "device", "ms");
   out += header;
   out += row("read", "cpu", s.read_ms);
   double total = s.read_ms + s.write_ms;

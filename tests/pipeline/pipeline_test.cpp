@@ -1,5 +1,7 @@
 // The whole pipeline on the shared scanned models and on synthetic soups.
 #include <algorithm>
+#include <cmath>
+#include <utility>
 #include <atomic>
 #include <cstdio>
 #include <string>
@@ -145,6 +147,40 @@ TEST(Pipeline, RejectsImpossibleTargetsAndOptionsWithTheLimit) {
   r = run_pipeline(cloud, default_options(1000));
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("point cloud"), std::string::npos);
+}
+
+// No tolerance may depend on the model's units: the same sphere in
+// micrometres, far from the origin, and at astronomical size remeshes like the
+// unit sphere (same vertex count, same distance from the surface).
+TEST(Pipeline, ResultDoesNotDependOnTheModelsUnitsOrPlacement) {
+  const Mesh unit = testing::icosphere(4);
+  auto max_radius_error = [](const Mesh& m, double scale, double offset) {
+    double worst = 0;
+    for (size_t v = 0; v < m.vertex_count(); ++v) {
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double x = (double(m.positions[3 * v + a]) - offset) / scale;
+        d2 += x * x;
+      }
+      worst = std::max(worst, std::abs(std::sqrt(d2) - 1.0));
+    }
+    return worst;
+  };
+  auto reference = run_pipeline(unit, default_options(800));
+  ASSERT_TRUE(reference.ok()) << reference.status().to_string();
+  // AWLOP's repulsion has a normal component on a curved surface: at 800
+  // points on the unit sphere it leaves particles up to ~1.1% outside.
+  const double reference_error = max_radius_error(reference->mesh, 1.0, 0.0);
+  EXPECT_LT(reference_error, 0.02);
+  for (const auto& [scale, offset] : {std::pair{1e-6, 0.0}, std::pair{1.0, 1e4}, std::pair{1e30, 0.0}}) {
+    Mesh m = unit;
+    for (size_t i = 0; i < m.positions.size(); ++i) m.positions[i] = float(m.positions[i] * scale + offset);
+    auto r = run_pipeline(m, default_options(800));
+    ASSERT_TRUE(r.ok()) << "scale " << scale << ": " << r.status().to_string();
+    EXPECT_NEAR(double(r->mesh.vertex_count()), double(reference->mesh.vertex_count()), 8.0) << "scale " << scale;
+    EXPECT_TRUE(mesh_quality(r->mesh).closed) << "scale " << scale;
+    EXPECT_NEAR(max_radius_error(r->mesh, scale, offset), reference_error, 0.003) << "scale " << scale;
+  }
 }
 
 TEST(Pipeline, StopsAtAStageBoundaryWhenCancelled) {

@@ -254,7 +254,10 @@ TEST_F(Backends, FlippedSoupLooksLikeTheOrientedMesh) {
     for (size_t v = 0; v < views.size(); ++v) {
       pixels += a[v].gray.pixels.size();
       for (size_t i = 0; i < a[v].gray.pixels.size(); ++i)
-        differing += a[v].gray.pixels[i] != b[v].gray.pixels[i] || a[v].coverage.pixels[i] != b[v].coverage.pixels[i];
+        // Gouraud interpolation may round differently with the corners in
+        // another order: one gray level is allowed, nothing more.
+        differing += std::abs(int(a[v].gray.pixels[i]) - int(b[v].gray.pixels[i])) > 1 ||
+                     a[v].coverage.pixels[i] != b[v].coverage.pixels[i];
     }
     EXPECT_EQ(differing, 0u) << "of " << pixels;
   }

@@ -43,6 +43,43 @@ class StageRunner {
 // F ~ 2V triangles of area (sqrt 3 / 4) l^2 each.
 double target_spacing(double area, uint32_t count) { return std::sqrt(2.0 * area / (std::sqrt(3.0) * count)); }
 
+// The pipeline runs on a copy of the input centred on its bounding box and
+// scaled to a unit diagonal, so that no tolerance anywhere (CGAL, FLANN,
+// AWLOP's guards, the renderer's depth range) depends on the model's units:
+// a model in micrometres or in light years remeshes like one in metres.
+struct Normalization {
+  double center[3] = {0, 0, 0};
+  double scale = 1;  // model units per normalized unit
+};
+
+StatusOr<Mesh> normalized_copy(const Mesh& input, Normalization* norm) {
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = input.positions[a];
+  for (size_t v = 0; v < input.vertex_count(); ++v)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], double(input.positions[3 * v + a]));
+      hi[a] = std::max(hi[a], double(input.positions[3 * v + a]));
+    }
+  double diag2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    norm->center[a] = 0.5 * (lo[a] + hi[a]);
+    diag2 += (hi[a] - lo[a]) * (hi[a] - lo[a]);
+  }
+  norm->scale = std::sqrt(diag2);
+  if (!(norm->scale > 0)) return invalid_argument("degenerate mesh: all vertices coincide");
+  Mesh out;
+  out.indices = input.indices;
+  out.positions.resize(input.positions.size());
+  for (size_t i = 0; i < input.positions.size(); ++i)
+    out.positions[i] = float((double(input.positions[i]) - norm->center[i % 3]) / norm->scale);
+  return out;
+}
+
+void denormalize(const Normalization& norm, std::vector<float>* positions) {
+  for (size_t i = 0; i < positions->size(); ++i)
+    (*positions)[i] = float(double((*positions)[i]) * norm.scale + norm.center[i % 3]);
+}
+
 }  // namespace
 
 Status validate_options(const PipelineOptions& o) {
@@ -75,9 +112,11 @@ Status validate_options(const PipelineOptions& o) {
   return Status::Ok();
 }
 
-StatusOr<PipelineResult> run_pipeline(const Mesh& input, const PipelineOptions& options) {
+StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOptions& options) {
   VPR_RETURN_IF_ERROR(validate_options(options));
-  VPR_RETURN_IF_ERROR(validate_mesh(input));
+  VPR_RETURN_IF_ERROR(validate_mesh(original));
+  Normalization norm;
+  VPR_ASSIGN_OR_RETURN(const Mesh input, normalized_copy(original, &norm));
 
   const auto job_start = Clock::now();
   const ExecContext ctx;  // the GPU twins plug in here (issue: GPU stages)
@@ -131,8 +170,11 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& input, const PipelineOptions& 
       std::error_code ec;
       std::filesystem::create_directories(options.debug_dir, ec);
       if (ec) return invalid_argument("cannot create debug directory " + options.debug_dir + ": " + ec.message());
-      for (size_t v = 0; v < views.size(); ++v)
-        VPR_RETURN_IF_ERROR(write_view_debug(options.debug_dir, views[v], snapshots[v], features[v], view_points[v]));
+      for (size_t v = 0; v < views.size(); ++v) {
+        std::vector<float> model_points = view_points[v];  // in the input's units, to overlay on it
+        denormalize(norm, &model_points);
+        VPR_RETURN_IF_ERROR(write_view_debug(options.debug_dir, views[v], snapshots[v], features[v], model_points));
+      }
       return Status::Ok();
     }));
   }
@@ -193,6 +235,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& input, const PipelineOptions& 
     return Status::Ok();
   }));
 
+  denormalize(norm, &result.mesh.positions);
   result.total_ms = ms_since(job_start);
   return result;
 }

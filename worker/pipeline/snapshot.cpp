@@ -3,9 +3,12 @@
 // on the gray image, unprojection (stage 3) on the depth buffer.
 //
 // Shading is ours, chosen for polygon soups whose faces have no consistent
-// orientation: flat and two-sided, gray = 255 * (0.15 + 0.85 |n . l|), with l
-// a headlight tilted 25 degrees up and to the left of the view direction so
-// that creases facing the camera still differ in brightness.
+// orientation: two-sided, gray = 255 * (0.15 + 0.85 |n . l|), with l a
+// headlight tilted 25 degrees up and to the left of the view direction so that
+// creases facing the camera still differ in brightness. n is a smooth corner
+// normal (see corner_normals): flat shading made every facet edge of a coarse
+// mesh an inner feature (spot.obj: a grid of lines over the whole cow), which
+// is tessellation, not shape.
 #include "snapshot.h"
 
 #include <algorithm>
@@ -13,6 +16,9 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <unordered_map>
+
+#include <tbb/parallel_for.h>
 
 #include "gl_functions.h"
 #include "vec3.h"
@@ -40,6 +46,7 @@ StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind) {
 namespace gl {
 namespace {
 
+constexpr double kSmoothingAngleDeg = 60;  // faces meeting at a sharper angle keep their crease
 constexpr double kAmbient = 0.15;           // gray floor, so grazing faces stay distinct from background
 constexpr double kLightTiltDegrees = 25.0;  // headlight tilt toward the view's upper left
 constexpr GLenum kMultisample = 0x809D;     // GL_MULTISAMPLE (GL 1.3)
@@ -62,6 +69,61 @@ std::string hex(unsigned v) {
 Vec3d unit(Vec3d v) {
   const double n = norm(v);
   return n > 0 ? v * (1.0 / n) : v;
+}
+
+// Smooth normals per corner, independent of face orientation and of whether
+// the faces share vertex indices (vertices are welded by exact position here,
+// for shading only, so a soup shades like the mesh it came from). The normal
+// of corner k of face f averages the area-weighted normals of the faces around
+// that position that lie within kSmoothingAngleDeg of f's, each flipped to f's
+// side first. kept_faces: the #K non-degenerate faces drawn; face_normals and
+// area_normals (cross products, length = 2 area) are theirs. Returns #K x 3.
+std::vector<Vec3> corner_normals(const Mesh& mesh, const std::vector<uint32_t>& kept_faces,
+                                 const std::vector<Vec3>& face_normals, const std::vector<Vec3d>& area_normals) {
+  struct Key {
+    uint32_t x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      return (size_t(k.x) * 73856093u) ^ (size_t(k.y) * 19349663u) ^ (size_t(k.z) * 83492791u);
+    }
+  };
+  const size_t nv = mesh.vertex_count(), nk = kept_faces.size();
+  std::unordered_map<Key, uint32_t, KeyHash> ids;
+  ids.reserve(nv);
+  std::vector<uint32_t> weld(nv);
+  for (size_t v = 0; v < nv; ++v) {
+    Key k;
+    std::memcpy(&k, &mesh.positions[3 * v], sizeof k);
+    weld[v] = ids.emplace(k, uint32_t(ids.size())).first->second;
+  }
+  // Faces around each welded vertex (CSR), in face order: a fixed summation order.
+  std::vector<uint32_t> start(ids.size() + 1, 0), faces(3 * nk);
+  auto corner_vertex = [&](size_t c) { return weld[mesh.indices[3 * size_t(kept_faces[c / 3]) + c % 3]]; };
+  for (size_t c = 0; c < 3 * nk; ++c) ++start[corner_vertex(c) + 1];
+  for (size_t v = 0; v < ids.size(); ++v) start[v + 1] += start[v];
+  std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+  for (size_t c = 0; c < 3 * nk; ++c) faces[fill[corner_vertex(c)]++] = uint32_t(c / 3);
+
+  const float min_cos = float(std::cos(kSmoothingAngleDeg * M_PI / 180.0));
+  std::vector<Vec3> out(3 * nk);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t c = r.begin(); c < r.end(); ++c) {
+      const Vec3 own = face_normals[c / 3];
+      Vec3d acc{0, 0, 0};
+      const uint32_t v = corner_vertex(c);
+      for (uint32_t i = start[v]; i < start[v + 1]; ++i) {
+        const uint32_t g = faces[i];
+        const float cosine = dot(face_normals[g], own);
+        if (std::abs(cosine) < min_cos) continue;
+        acc = acc + (cosine < 0 ? -1.0 : 1.0) * area_normals[g];
+      }
+      const double len = norm(acc);
+      out[c] = len > 0 ? Vec3{float(acc.x / len), float(acc.y / len), float(acc.z / len)} : own;
+    }
+  });
+  return out;
 }
 
 // The light of one view, in model space (same frame as the face normals).
@@ -226,9 +288,12 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   const Vec3d centre{0.5 * (double(box.lo[0]) + box.hi[0]), 0.5 * (double(box.lo[1]) + box.hi[1]),
                      0.5 * (double(box.lo[2]) + box.hi[2])};
   std::vector<float> positions;
-  std::vector<Vec3> normals;  // float: at 40M faces the doubles would cost another 0.5 GB
+  std::vector<Vec3> face_normals;  // float: at 40M faces the doubles would cost another 0.5 GB
+  std::vector<Vec3d> area_normals;
+  std::vector<uint32_t> kept_faces;
   positions.reserve(9 * nf);
-  normals.reserve(nf);
+  face_normals.reserve(nf);
+  area_normals.reserve(nf);
   for (size_t f = 0; f < nf; ++f) {
     const Vec3d a = load3d(mesh.positions.data(), mesh.indices[3 * f]) - centre;
     const Vec3d b = load3d(mesh.positions.data(), mesh.indices[3 * f + 1]) - centre;
@@ -236,14 +301,18 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     const Vec3d n = cross(b - a, c - a);
     const double len = norm(n);
     if (!(len > 0.0) || !std::isfinite(len)) continue;  // degenerate: nothing to draw, no normal
-    normals.push_back(Vec3{float(n.x / len), float(n.y / len), float(n.z / len)});
+    face_normals.push_back(Vec3{float(n.x / len), float(n.y / len), float(n.z / len)});
+    area_normals.push_back(n);
+    kept_faces.push_back(uint32_t(f));
     for (const Vec3d& p : {a, b, c}) {
       positions.push_back(float(p.x));
       positions.push_back(float(p.y));
       positions.push_back(float(p.z));
     }
   }
-  const size_t kept = normals.size();
+  const size_t kept = face_normals.size();
+  const std::vector<Vec3> normals = corner_normals(mesh, kept_faces, face_normals, area_normals);
+  area_normals = {};
   const GLsizei vertex_count = GLsizei(3 * kept);
   std::vector<uint8_t> colors(4 * 3 * kept, 255);
 
@@ -259,7 +328,7 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   gl.DepthFunc(GL_LESS);
   gl.DepthMask(GL_TRUE);
   gl.DepthRange(0.0, 1.0);
-  gl.ShadeModel(GL_FLAT);
+  gl.ShadeModel(GL_SMOOTH);
   gl.PolygonMode(GL_FRONT_AND_BACK, GL_FILL);
   gl.ClearColor(0.f, 0.f, 0.f, 1.f);
   gl.ClearDepth(1.0);
@@ -277,12 +346,11 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   for (const View& view : views) {
     const Vec3d l = view_light(view);
     const Vec3 light{float(l.x), float(l.y), float(l.z)};
-    for (size_t f = 0; f < kept; ++f) {
+    for (size_t c = 0; c < 3 * kept; ++c) {
       const float shade =
-          std::clamp(float(kAmbient) + float(1.0 - kAmbient) * std::abs(dot(normals[f], light)), 0.f, 1.f);
+          std::clamp(float(kAmbient) + float(1.0 - kAmbient) * std::abs(dot(normals[c], light)), 0.f, 1.f);
       const uint8_t g = uint8_t(255.f * shade + 0.5f);
-      uint8_t* c = &colors[12 * f];
-      for (int k = 0; k < 3; ++k) c[4 * k] = c[4 * k + 1] = c[4 * k + 2] = g;
+      colors[4 * c] = colors[4 * c + 1] = colors[4 * c + 2] = g;
     }
 
     // view_proj * translate(centre): the positions above are centre-relative.
