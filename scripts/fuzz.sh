@@ -5,7 +5,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 bash scripts/install-deps.sh
 command -v clang++ >/dev/null || apt-get install -y -qq clang >/dev/null
-flags="-fsanitize=address,undefined -fno-omit-frame-pointer"
+flags="-fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer"  # coverage for the libraries too
 cmake -S . -B build/fuzz -G Ninja -DVPR_FUZZ=ON -DVPR_CUDA=OFF -DVPR_BUILD_TESTS=ON \
   -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_C_FLAGS="$flags" >/dev/null
