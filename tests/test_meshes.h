@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <tuple>
+#include <utility>
 
 #include "pipeline/mesh.h"
 
@@ -43,6 +44,21 @@ inline Mesh icosphere(int levels, float radius = 1.0f) {
     for (int k = 0; k < 3; ++k) p[k] *= radius / n;
   }
   return m;
+}
+
+// The same surface as a polygon soup: every face its own three vertices, and
+// every other face wound the other way. No connectivity survives.
+inline Mesh flipped_soup(const Mesh& mesh) {
+  Mesh soup;
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    uint32_t corner[3] = {mesh.indices[3 * f], mesh.indices[3 * f + 1], mesh.indices[3 * f + 2]};
+    if (f % 2) std::swap(corner[1], corner[2]);
+    for (uint32_t c : corner) {
+      soup.indices.push_back(uint32_t(soup.vertex_count()));
+      soup.positions.insert(soup.positions.end(), &mesh.positions[3 * c], &mesh.positions[3 * c + 3]);
+    }
+  }
+  return soup;
 }
 
 }  // namespace vpr::testing

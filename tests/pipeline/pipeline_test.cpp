@@ -109,17 +109,7 @@ TEST(Pipeline, SameSeedGivesIdenticalOutputAtOneAndTwoThreads) {
 }
 
 TEST(Pipeline, PolygonSoupOfASphereGivesAClosedGenusZeroMesh) {
-  // Unweld every face and flip every other one: no connectivity survives.
-  const Mesh sphere = testing::icosphere(4);
-  Mesh soup;
-  for (size_t f = 0; f < sphere.face_count(); ++f) {
-    uint32_t c[3] = {sphere.indices[3 * f], sphere.indices[3 * f + 1], sphere.indices[3 * f + 2]};
-    if (f % 2) std::swap(c[1], c[2]);
-    for (uint32_t v : c) {
-      soup.indices.push_back(uint32_t(soup.vertex_count()));
-      soup.positions.insert(soup.positions.end(), &sphere.positions[3 * v], &sphere.positions[3 * v + 3]);
-    }
-  }
+  const Mesh soup = testing::flipped_soup(testing::icosphere(4));
   auto result = run_pipeline(soup, default_options(1000));
   ASSERT_TRUE(result.ok()) << result.status().to_string();
   const MeshQuality q = mesh_quality(result->mesh);

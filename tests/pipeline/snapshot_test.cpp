@@ -234,15 +234,7 @@ TEST_F(Backends, FlippedSoupLooksLikeTheOrientedMesh) {
   const Mesh sphere = testing::icosphere(3);
   // The same surface as a soup: every face its own vertices, every other face
   // wound the other way, plus a degenerate face that must draw nothing.
-  Mesh soup;
-  for (size_t f = 0; f < sphere.face_count(); ++f) {
-    uint32_t corner[3] = {sphere.indices[3 * f], sphere.indices[3 * f + 1], sphere.indices[3 * f + 2]};
-    if (f % 2) std::swap(corner[1], corner[2]);
-    for (uint32_t c : corner) {
-      for (int k = 0; k < 3; ++k) soup.positions.push_back(sphere.positions[3 * c + k]);
-      soup.indices.push_back(uint32_t(soup.indices.size()));
-    }
-  }
+  Mesh soup = testing::flipped_soup(sphere);
   soup.indices.insert(soup.indices.end(), {0, 0, 1});
   const std::vector<View> views = views_of(sphere, 256);
   for (auto& r : backends_) {

@@ -183,10 +183,13 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
   view_points.clear();
 
   // Stage 4: saliency field on the input vertices.
-  const double area = total_area(input);
+  const std::vector<double> areas = face_areas(input);
+  double area = 0;
+  for (double a : areas) area += a;
+  const double mean_edge = mean_edge_length(input);
   const double spacing_out = target_spacing(area, options.target_vertices);
   VPR_RETURN_IF_ERROR(stage.run("saliency_field", cpu, [&]() -> Status {
-    const float scale = resolve_depth_scale(options.field, spacing_out, mean_edge_length(input));
+    const float scale = resolve_depth_scale(options.field, spacing_out, mean_edge);
     return cpu::saliency_field(input.positions.data(), input.vertex_count(), saliency_points.data(),
                                saliency_points.size() / 3, options.field, scale, &result.input_importance, ctx);
   }));
@@ -208,7 +211,6 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
   // triangles (vertices only on creases) do not pull the particles to edges.
   VPR_RETURN_IF_ERROR(stage.run("awlop", cpu, [&]() -> Status {
     const uint64_t count = uint64_t(options.target_vertices) * options.awlop.attraction_samples_per_target;
-    std::vector<double> areas = face_areas(input);
     std::vector<uint32_t> counts, offsets;
     VPR_RETURN_IF_ERROR(cpu::distribute_counts(areas.data(), areas.size(), uint32_t(count), &counts, &offsets, ctx));
     std::vector<float> ones(input.vertex_count(), 1.0f), surface_points, unused;
@@ -218,7 +220,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     VPR_RETURN_IF_ERROR(cpu::sample_triangles(input, ones.data(), counts.data(), offsets.data(), uniform,
                                               &surface_points, &unused, ctx));
     VPR_ASSIGN_OR_RETURN(const double h, awlop_support_radius(options.awlop.support, options.awlop.h_factor,
-                                                             mean_edge_length(input), area,
+                                                             mean_edge, area,
                                                              options.target_vertices));
     return cpu::awlop(surface_points.data(), surface_points.size() / 3, particles.data(),
                       particle_importance.data(), particle_importance.size(), h, options.awlop, &result.awlop, ctx);
