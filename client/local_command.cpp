@@ -114,7 +114,12 @@ Command add_local_command(CLI::App& app) {
   cmd->add_option("--knn", o.field.k, "Algorithm 1: k of the k-NN graph")->capture_default_str();
   cmd->add_option("--beta", o.field.beta, "Algorithm 1: I = beta^depth")->capture_default_str();
   cmd->add_option("--min-importance", o.field.min_importance, "Floor of the importance")->capture_default_str();
+  cmd->add_option("--depth-scale", o.field.depth_scale, "Field depth per output spacing (0 = automatic)")
+      ->capture_default_str();
   cmd->add_option("--mu", o.awlop.mu, "Eq. (17) repulsion strength")->capture_default_str();
+  cmd->add_option("--awlop-samples", o.awlop.attraction_samples_per_target,
+                  "Surface samples AWLOP attracts to, per target vertex")
+      ->capture_default_str();
   cmd->add_option("--awlop-k", o.awlop.k, "AWLOP neighbours")->capture_default_str();
   cmd->add_option("--awlop-iterations", o.awlop.iterations, "AWLOP iterations")->capture_default_str();
   cmd->add_option("--awlop-support", args->awlop_support, "h from 'target' spacing or 'paper' (input edges)")
