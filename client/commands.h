@@ -2,9 +2,8 @@
 // returns the function that runs it (an exit code from exit_codes.h).
 #pragma once
 
-#include <functional>
-
 #include <CLI/CLI.hpp>
+#include <functional>
 
 namespace vpr::cli {
 

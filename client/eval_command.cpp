@@ -2,9 +2,8 @@
 // topology of a remeshed model against its reference.
 #include <cstdio>
 #include <memory>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "commands.h"
 #include "eval/hausdorff.h"
@@ -75,8 +74,7 @@ int run_eval(const EvalArgs& a) {
   }
   std::printf("Hausdorff (units of the reference bbox diagonal %.6g): max %.6f  mean %.6f  rms %.6f\n", h->diagonal,
               h->max, h->mean, h->rms);
-  std::printf("  reference->candidate max %.6f, candidate->reference max %.6f\n\n", h->forward_max,
-              h->backward_max);
+  std::printf("  reference->candidate max %.6f, candidate->reference max %.6f\n\n", h->forward_max, h->backward_max);
   std::printf("%-10s %9s %9s %9s %10s %8s %8s %8s %8s\n", "mesh", "vertices", "faces", "min-angle", "<30deg",
               "nm-edges", "nm-verts", "holes", "parts");
   print_quality("reference", qr);

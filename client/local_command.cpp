@@ -1,11 +1,11 @@
 // `vpremesh local INPUT -o OUTPUT --target-vertices N ...`: the whole pipeline
 // in this process, without the service.
+#include <tbb/global_control.h>
+
 #include <chrono>
 #include <cstdio>
 #include <memory>
 #include <string>
-
-#include <tbb/global_control.h>
 
 #include "commands.h"
 #include "exit_codes.h"
@@ -109,8 +109,7 @@ Command add_local_command(CLI::App& app) {
   cmd->add_option("--gaussian-sigma", o.image.gaussian_sigma, "Eq. (1) Gaussian sigma")->capture_default_str();
   cmd->add_option("--threshold-c", o.image.threshold_c, "Eq. (3) threshold C")->capture_default_str();
   cmd->add_option("--skeleton-lambda", o.image.skeleton_lambda, "Eq. (5) lambda")->capture_default_str();
-  cmd->add_option("--thin-feature-px", o.image.thin_feature_px, "Thin feature size at 512 px")
-      ->capture_default_str();
+  cmd->add_option("--thin-feature-px", o.image.thin_feature_px, "Thin feature size at 512 px")->capture_default_str();
   cmd->add_option("--knn", o.field.k, "Algorithm 1: k of the k-NN graph")->capture_default_str();
   cmd->add_option("--beta", o.field.beta, "Algorithm 1: I = beta^depth")->capture_default_str();
   cmd->add_option("--min-importance", o.field.min_importance, "Floor of the importance")->capture_default_str();

@@ -1,7 +1,6 @@
 // vpremesh: command-line front end of the remeshing service.
-#include <cstdio>
-
 #include <CLI/CLI.hpp>
+#include <cstdio>
 
 #include "commands.h"
 #include "exit_codes.h"

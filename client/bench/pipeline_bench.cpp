@@ -3,16 +3,16 @@
 // input to the same vertex count as the peer a user would pick instead.
 // Prints a Markdown table.
 //   vpremesh-bench [--threads N] [--repeat R] MODEL:TARGET ...
+#include <tbb/global_control.h>
+
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Tools/Decimater/DecimaterT.hh>
+#include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
 #include <chrono>
 #include <cstdio>
 #include <map>
 #include <string>
 #include <vector>
-
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
-#include <OpenMesh/Tools/Decimater/DecimaterT.hh>
-#include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
-#include <tbb/global_control.h>
 
 #include "io/mesh_io.h"
 #include "pipeline/pipeline.h"
@@ -22,7 +22,9 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using OmMesh = OpenMesh::TriMesh_ArrayKernelT<>;
 
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+double ms_since(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
 
 // OpenMesh needs a manifold; faces it refuses are counted and skipped.
 double openmesh_quadric_ms(const vpr::Mesh& in, uint32_t target, size_t* out_vertices) {
@@ -70,8 +72,8 @@ int main(int argc, char** argv) {
   std::unique_ptr<tbb::global_control> limit;
   if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
 
-  const char* stages[] = {"views", "render", "image_saliency", "unproject", "saliency_field",
-                          "sampling", "awlop", "meshing"};
+  const char* stages[] = {"views",          "render",   "image_saliency", "unproject",
+                          "saliency_field", "sampling", "awlop",          "meshing"};
   std::printf("| model | in V | target | out V | read |");
   for (const char* s : stages) std::printf(" %s |", s);
   std::printf(" write | total ms | OpenMesh QEM ms | ratio |\n|---|---|---|---|---|");

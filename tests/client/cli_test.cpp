@@ -1,14 +1,13 @@
 // The real `vpremesh` binary: a good run and every kind of bad input, each
 // with its exit code and one clear line.
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <string>
-
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "eval/mesh_quality.h"
 #include "io/mesh_io.h"
@@ -54,7 +53,7 @@ class CliTest : public ::testing::Test {
 TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
   const std::string out = path("spot.drc");
   CliRun r = run_cli("local ../shared/models/spot.obj -o " + out + " --target-vertices 800 --json --field-out " +
-                  path("field.ply") + " --debug-dir " + path("debug"));
+                     path("field.ply") + " --debug-dir " + path("debug"));
   ASSERT_EQ(r.code, 0) << r.out;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["input"]["vertices"], 2930);
@@ -62,8 +61,8 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
   EXPECT_NEAR(v, 800, 16);
   std::vector<std::string> names;
   for (const auto& s : j["stages"]) names.push_back(s["name"]);
-  for (const char* stage : {"read", "views", "render", "image_saliency", "unproject", "debug_output",
-                            "saliency_field", "sampling", "awlop", "meshing", "write"})
+  for (const char* stage : {"read", "views", "render", "image_saliency", "unproject", "debug_output", "saliency_field",
+                            "sampling", "awlop", "meshing", "write"})
     EXPECT_NE(std::find(names.begin(), names.end(), stage), names.end()) << stage;
 
   auto mesh = read_mesh(out);

@@ -1,13 +1,13 @@
 // Evaluation metrics on shapes whose answers are known in closed form.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <map>
 #include <utility>
 #include <vector>
-
-#include <gtest/gtest.h>
-#include <tbb/global_control.h>
 
 #include "eval/hausdorff.h"
 #include "eval/mesh_quality.h"
@@ -21,7 +21,9 @@ const double kSqrt3 = std::sqrt(3.0);
 void add_vertex(Mesh* m, double x, double y, double z) {
   m->positions.insert(m->positions.end(), {float(x), float(y), float(z)});
 }
-void add_face(Mesh* m, uint32_t a, uint32_t b, uint32_t c) { m->indices.insert(m->indices.end(), {a, b, c}); }
+void add_face(Mesh* m, uint32_t a, uint32_t b, uint32_t c) {
+  m->indices.insert(m->indices.end(), {a, b, c});
+}
 
 // Unit cube [0,1]^3 shifted by `offset` along x, 12 outward triangles. With
 // skip_face in [0, 6) that quad (0: x=0, 1: x=1, 2: y=0, 3: y=1, 4: z=0, 5: z=1)
@@ -48,10 +50,10 @@ Mesh cube(double offset = 0, int skip_face = -1) {
 // vertices pushed onto the unit sphere): 20 * 4^levels faces.
 Mesh icosphere(int levels) {
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Vec3d> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                          {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  std::vector<Vec3d> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                          {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
   for (Vec3d& p : v) p = p * (1.0 / norm(p));
-  std::vector<uint32_t> f = {0, 11, 5, 0, 5,  1,  0, 1, 7, 0, 7,  10, 0, 10, 11, 1, 5, 9, 5, 11,
+  std::vector<uint32_t> f = {0, 11, 5,  0, 5,  1, 0, 1, 7, 0, 7,  10, 0, 10, 11, 1, 5, 9, 5, 11,
                              4, 11, 10, 2, 10, 7, 6, 7, 1, 8, 3,  9,  4, 3,  4,  2, 3, 2, 6, 3,
                              6, 8,  3,  8, 9,  4, 9, 5, 2, 4, 11, 6,  2, 10, 8,  6, 7, 9, 8, 1};
   for (int level = 0; level < levels; ++level) {
@@ -113,7 +115,8 @@ TEST(Hausdorff, IdenticalMeshesAreAtDistanceZero) {
 TEST(Hausdorff, TranslatedCubeMatchesClosedForm) {
   const double d = 0.1;
   const double mean = (d + 2 * d * d + (1 - 2 * d) * (1 - 2 * d) * d + 4 * d * d * (0.5 - 2 * d / 3)) / 6;
-  const double ms = (d * d + 4 * d * d * d / 3 + (1 - 2 * d) * (1 - 2 * d) * d * d + 4 * d * d * d * (1.0 / 3 - d / 2)) / 6;
+  const double ms =
+      (d * d + 4 * d * d * d / 3 + (1 - 2 * d) * (1 - 2 * d) * d * d + 4 * d * d * d * (1.0 / 3 - d / 2)) / 6;
   auto r = hausdorff_distance(cube(), cube(d));
   ASSERT_TRUE(r.ok()) << r.status().to_string();
   EXPECT_NEAR(r->diagonal, kSqrt3, 1e-6);
@@ -201,13 +204,11 @@ TEST(Hausdorff, RejectsBadInputNamingTheMesh) {
   auto r1 = hausdorff_distance(good, bad_index);
   ASSERT_FALSE(r1.ok());
   EXPECT_EQ(r1.status().code(), StatusCode::kInvalidArgument);
-  EXPECT_EQ(r1.status().message().rfind("candidate mesh: face 1 references vertex 99", 0), 0u)
-      << r1.status().message();
+  EXPECT_EQ(r1.status().message().rfind("candidate mesh: face 1 references vertex 99", 0), 0u) << r1.status().message();
 
   auto r2 = hausdorff_distance(nan, good);
   ASSERT_FALSE(r2.ok());
-  EXPECT_EQ(r2.status().message().rfind("reference mesh: vertex 1 has a non-finite", 0), 0u)
-      << r2.status().message();
+  EXPECT_EQ(r2.status().message().rfind("reference mesh: vertex 1 has a non-finite", 0), 0u) << r2.status().message();
 
   HausdorffOptions zero;
   zero.samples_per_mesh = 0;
@@ -375,7 +376,7 @@ TEST(MeshQuality, SoupWithDuplicateDegenerateAndInvalidFaces) {
   Mesh m = cube();
   const std::vector<uint32_t> first(m.indices.begin(), m.indices.begin() + 3);
   m.indices.insert(m.indices.end(), first.begin(), first.end());  // duplicate of face 0
-  add_face(&m, 1, 1, 3);                                           // repeated index, on a cube edge
+  add_face(&m, 1, 1, 3);                                          // repeated index, on a cube edge
   add_vertex(&m, 0.5, 0, 0);
   add_face(&m, 0, 1, 8);   // collinear, new edges 0-8 and 1-8 plus cube edge 0-1
   add_face(&m, 0, 1, 42);  // index out of range

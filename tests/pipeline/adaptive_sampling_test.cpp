@@ -28,8 +28,8 @@ double marginal_g(double s, double ia, double ib, double ic) {
 TEST(InverseCdf, SSolvesTheCubicAndIsMonotone) {
   std::mt19937 rng(1);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  std::vector<std::array<double, 3>> cases = {{1, 0.2, 0.6}, {0.2, 1, 1}, {1, 0, 0}, {0, 1, 0}, {0.5, 0.5, 0.5},
-                                              {1e-6, 1, 1}, {1, 1e-6, 1e-6}};
+  std::vector<std::array<double, 3>> cases = {{1, 0.2, 0.6},   {0.2, 1, 1},  {1, 0, 0},      {0, 1, 0},
+                                              {0.5, 0.5, 0.5}, {1e-6, 1, 1}, {1, 1e-6, 1e-6}};
   for (int i = 0; i < 50; ++i) cases.push_back({u(rng), u(rng), u(rng)});
   double worst = 0.0;
   for (const auto& c : cases) {
@@ -155,8 +155,7 @@ ChiSquare chi_square(const Mesh& m, const std::vector<float>& points, std::array
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) {
           const double s = (cs + 0.5 + 0.5 * node[i]) / cells, t = (ct + 0.5 + 0.5 * node[j]) / cells;
-          sum += weight[i] * weight[j] * s *
-                 ((1 - s) * density[0] + s * (1 - t) * density[1] + s * t * density[2]);
+          sum += weight[i] * weight[j] * s * ((1 - s) * density[0] + s * (1 - t) * density[1] + s * t * density[2]);
         }
       expected[cs * cells + ct] = sum;
       total += sum;
@@ -173,8 +172,8 @@ std::vector<float> sample_one_triangle(const Mesh& m, const std::vector<float>& 
                                        SamplingOptions options) {
   const uint32_t counts[1] = {count}, offsets[2] = {0, count};
   std::vector<float> points, point_importance;
-  EXPECT_TRUE(cpu::sample_triangles(m, importance.data(), counts, offsets, options, &points, &point_importance, kCpu)
-                  .ok());
+  EXPECT_TRUE(
+      cpu::sample_triangles(m, importance.data(), counts, offsets, options, &points, &point_importance, kCpu).ok());
   return points;
 }
 
@@ -184,8 +183,7 @@ TEST(SampleTriangles, AdaptiveSamplesFollowTheInterpolatedImportance) {
   const std::vector<float> points = sample_one_triangle(m, importance, 200000, {});
   const ChiSquare fit = chi_square(m, points, {1.0, 0.2, 0.6});
   // 99 degrees of freedom; the 0.001 critical value is 148.2.
-  std::printf("adaptive (1, 0.2, 0.6), 200k samples: chi2 = %.1f (99 dof), p = %.3f\n", fit.statistic,
-              fit.p_value);
+  std::printf("adaptive (1, 0.2, 0.6), 200k samples: chi2 = %.1f (99 dof), p = %.3f\n", fit.statistic, fit.p_value);
   EXPECT_GT(fit.p_value, 0.001) << "chi2 = " << fit.statistic;
   // The test has power: the same samples are far from uniform.
   const ChiSquare vs_uniform = chi_square(m, points, {1.0, 1.0, 1.0});
@@ -208,8 +206,7 @@ TEST(SampleTriangles, UniformSamplesAreUniformInArea) {
   other_seed.seed = 2;
   const std::vector<float> equal = sample_one_triangle(m, {0.5f, 0.5f, 0.5f}, 200000, other_seed);
   const ChiSquare fit_equal = chi_square(m, equal, {1, 1, 1});
-  std::printf("adaptive sampler, equal importances: chi2 = %.1f, p = %.3f\n", fit_equal.statistic,
-              fit_equal.p_value);
+  std::printf("adaptive sampler, equal importances: chi2 = %.1f, p = %.3f\n", fit_equal.statistic, fit_equal.p_value);
   EXPECT_GT(fit_equal.p_value, 0.001) << "chi2 = " << fit_equal.statistic;
 }
 
@@ -376,9 +373,9 @@ TEST(SampleTriangles, SamplesLieInTheirFaceWithInterpolatedImportance) {
   EXPECT_GT(uniform_faces, 500u);
   EXPECT_GT(adaptive_faces, 500u);
   std::vector<float> points, pi;
-  ASSERT_TRUE(cpu::sample_triangles(s.mesh, s.importance.data(), s.counts.data(), s.offsets.data(), {}, &points, &pi,
-                                    kCpu)
-                  .ok());
+  ASSERT_TRUE(
+      cpu::sample_triangles(s.mesh, s.importance.data(), s.counts.data(), s.offsets.data(), {}, &points, &pi, kCpu)
+          .ok());
   ASSERT_EQ(points.size(), 3u * 40000);
   double lowest = 1.0, worst_importance = 0.0;
   for (size_t f = 0; f < s.counts.size(); ++f)
@@ -399,8 +396,7 @@ TEST(SampleTriangles, RejectsInconsistentOffsets) {
   std::vector<uint32_t> offsets = s.offsets;
   offsets[7] += 1;
   std::vector<float> points, pi;
-  EXPECT_EQ(cpu::sample_triangles(s.mesh, s.importance.data(), s.counts.data(), offsets.data(), {}, &points, &pi,
-                                  kCpu)
+  EXPECT_EQ(cpu::sample_triangles(s.mesh, s.importance.data(), s.counts.data(), offsets.data(), {}, &points, &pi, kCpu)
                 .code(),
             StatusCode::kInvalidArgument);
 }
@@ -476,15 +472,17 @@ TEST(SampleTriangles, IgeaIsDeterministicAcrossThreadsAndSeeds) {
   const std::vector<double> area = face_areas(m);
   double surface_mean = 0.0, total = 0.0;
   for (size_t f = 0; f < area.size(); ++f) {
-    surface_mean += area[f] * (importance[m.indices[3 * f]] + importance[m.indices[3 * f + 1]] +
-                               importance[m.indices[3 * f + 2]]) / 3;
+    surface_mean +=
+        area[f] * (importance[m.indices[3 * f]] + importance[m.indices[3 * f + 1]] + importance[m.indices[3 * f + 2]]) /
+        3;
     total += area[f];
   }
   surface_mean /= total;
   EXPECT_GT(sample_mean, surface_mean + 0.02);
-  std::printf("igea 268686 faces -> 10000 samples: %.4f s at 2 threads, %.4f s at 1; mean I of samples %.3f vs "
-              "surface %.3f\n",
-              t2, t1, sample_mean, surface_mean);
+  std::printf(
+      "igea 268686 faces -> 10000 samples: %.4f s at 2 threads, %.4f s at 1; mean I of samples %.3f vs "
+      "surface %.3f\n",
+      t2, t1, sample_mean, surface_mean);
 }
 
 }  // namespace

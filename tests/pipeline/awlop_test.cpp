@@ -33,7 +33,9 @@ std::vector<float> random_sphere(size_t n, uint64_t seed) {
   return p;
 }
 
-double target_h(size_t particles) { return 2.0 * std::sqrt(4.0 * kPi / double(particles)); }
+double target_h(size_t particles) {
+  return 2.0 * std::sqrt(4.0 * kPi / double(particles));
+}
 
 Status run_awlop(const std::vector<float>& input, std::vector<float>* particles, const std::vector<float>& importance,
                  double h, const AwlopOptions& options, AwlopStats* stats = nullptr) {

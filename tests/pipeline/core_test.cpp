@@ -1,9 +1,9 @@
 // Core types: the counter-based RNG against the published Philox answers,
 // mesh validation messages, areas.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
-
-#include <gtest/gtest.h>
 
 #include "pipeline/mesh.h"
 #include "pipeline/rng.h"

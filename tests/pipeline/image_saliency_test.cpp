@@ -1,6 +1,8 @@
 // Stage 2 (image-space saliency): each filter against an independent
 // reference (brute force or a direct double-precision formula) or against
 // shapes whose answer is known in closed form.
+#include "pipeline/image_saliency.h"
+
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
@@ -14,7 +16,6 @@
 
 #include "pipeline/distance_transform.h"
 #include "pipeline/image_kernels.h"
-#include "pipeline/image_saliency.h"
 #include "pipeline/inner_feature.h"
 #include "pipeline/median_filter.h"
 #include "pipeline/silhouette_feature.h"
@@ -229,9 +230,8 @@ TEST(InnerFeatures, MatchDirectDoubleEvaluationOfEq1To3) {
           const double p = gray.at(x, y);
           // The per-pixel kernel of the GPU twin, with and without clamping.
           const bool inside = x >= n / 2 && y >= n / 2 && x < w - n / 2 && y < h - n / 2;
-          const int64_t kernel_sum =
-              inside ? gaussian_sum_at<false>(gray.pixels.data(), w, h, x, y, weights.data(), n)
-                     : gaussian_sum_at<true>(gray.pixels.data(), w, h, x, y, weights.data(), n);
+          const int64_t kernel_sum = inside ? gaussian_sum_at<false>(gray.pixels.data(), w, h, x, y, weights.data(), n)
+                                            : gaussian_sum_at<true>(gray.pixels.data(), w, h, x, y, weights.data(), n);
           kernel_mismatched += inner_feature_test(kernel_sum, gray.at(x, y), c) != (features.at(x, y) != 0);
           if (std::abs(t - p) < 1e-9) continue;
           ++compared;

@@ -35,7 +35,9 @@ std::vector<float> fibonacci_sphere(size_t n, double jitter, uint64_t seed) {
     Vec3d x{s * std::cos(golden * double(i)), s * std::sin(golden * double(i)), z};
     x = x + Vec3d{uniform01(r.v[0]) - 0.5, uniform01(r.v[1]) - 0.5, uniform01(r.v[2]) - 0.5} * (2 * jitter * spacing);
     x = x * (1.0 / norm(x));
-    p[3 * i] = float(x.x); p[3 * i + 1] = float(x.y); p[3 * i + 2] = float(x.z);
+    p[3 * i] = float(x.x);
+    p[3 * i + 1] = float(x.y);
+    p[3 * i + 2] = float(x.z);
   }
   return p;
 }
@@ -59,10 +61,10 @@ std::vector<float> torus(size_t nu, size_t nv, uint64_t seed) {
 struct Topology {
   size_t vertices = 0, edges = 0, faces = 0;
   size_t unreferenced_vertices = 0;
-  size_t boundary_edges = 0;         // edges with one face
-  size_t non_manifold_edges = 0;     // edges with three or more faces
+  size_t boundary_edges = 0;           // edges with one face
+  size_t non_manifold_edges = 0;       // edges with three or more faces
   size_t repeated_directed_edges = 0;  // an oriented edge used twice: orientation flips
-  size_t non_manifold_vertices = 0;  // link falls apart into several fans
+  size_t non_manifold_vertices = 0;    // link falls apart into several fans
   size_t components = 0;
   double signed_volume = 0;
   long euler() const { return long(vertices) - long(edges) + long(faces); }
@@ -103,7 +105,10 @@ Topology analyze(const Mesh& m) {
   }
   for (const auto& [e, count] : directed) t.repeated_directed_edges += count > 1;
   for (size_t v = 0; v < t.vertices; ++v) {
-    if (!referenced[v]) { ++t.unreferenced_vertices; continue; }
+    if (!referenced[v]) {
+      ++t.unreferenced_vertices;
+      continue;
+    }
     t.components += find(parent, v) == v;
     // The faces around a manifold vertex form one fan: their opposite edges
     // chain into a single path or cycle.
@@ -170,7 +175,7 @@ TEST(MeshingTest, SphereBecomesClosedOutwardGenusZeroSurface) {
   EXPECT_EQ(t.vertices, n);       // every particle is used once
   EXPECT_EQ(t.faces, 2 * n - 4);  // closed genus-0 triangle mesh
   const double sphere = 4.0 / 3.0 * kPi;
-  EXPECT_GT(t.signed_volume, 0.0);  // outward
+  EXPECT_GT(t.signed_volume, 0.0);                   // outward
   EXPECT_NEAR(t.signed_volume / sphere, 1.0, 0.02);  // measured 0.9970: chords cut inside
   EXPECT_EQ(inward_faces(mesh), 0u);
 

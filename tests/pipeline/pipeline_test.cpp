@@ -1,18 +1,19 @@
 // The whole pipeline on the shared scanned models and on synthetic soups.
-#include <algorithm>
-#include <cmath>
-#include <utility>
-#include <atomic>
-#include <cstdio>
-#include <string>
+#include "pipeline/pipeline.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <utility>
+
 #include "eval/hausdorff.h"
 #include "eval/mesh_quality.h"
 #include "io/mesh_io.h"
-#include "pipeline/pipeline.h"
 #include "test_meshes.h"
 
 namespace vpr {
@@ -67,16 +68,16 @@ TEST_P(SharedModel, RemeshesWithinTargetAsAManifoldCloseToTheInput) {
     ASSERT_LE(s, 1.0f + 1e-6f);
   }
   EXPECT_GT(result->saliency_points, 100u);
-  std::printf("%-16s in %7zu v (closed %d) -> %5zu v, mean H %.5f, max H %.5f, min angle %.1f, <30deg %.2f%%, "
-              "%.0f ms\n",
-              GetParam().file, input->vertex_count(), q_in.closed, out.vertex_count(), h->mean, h->max,
-              q_out.min_angle_deg, 100 * q_out.share_angles_below_30, result->total_ms);
+  std::printf(
+      "%-16s in %7zu v (closed %d) -> %5zu v, mean H %.5f, max H %.5f, min angle %.1f, <30deg %.2f%%, "
+      "%.0f ms\n",
+      GetParam().file, input->vertex_count(), q_in.closed, out.vertex_count(), h->mean, h->max, q_out.min_angle_deg,
+      100 * q_out.share_angles_below_30, result->total_ms);
 }
 
 INSTANTIATE_TEST_SUITE_P(Models, SharedModel,
-                         ::testing::Values(ModelCase{"horse.ply"}, ModelCase{"kitten.obj"},
-                                           ModelCase{"fandisk.obj"}, ModelCase{"bunny.obj"},
-                                           ModelCase{"beast.obj"}, ModelCase{"teapot.obj"}),
+                         ::testing::Values(ModelCase{"horse.ply"}, ModelCase{"kitten.obj"}, ModelCase{"fandisk.obj"},
+                                           ModelCase{"bunny.obj"}, ModelCase{"beast.obj"}, ModelCase{"teapot.obj"}),
                          [](const auto& info) {
                            std::string name = info.param.file;
                            return name.substr(0, name.find('.'));

@@ -189,15 +189,14 @@ TEST(AdvancingFront, GridWithDisconnectedPartMatchesBfs) {
     nb.insert(nb.end(), {a, b, a, b});
   }
   std::vector<uint8_t> seed(n, 0);
-  seed[0] = 1;                 // corner
-  seed[15 * w + 20] = 1;       // interior
+  seed[0] = 1;            // corner
+  seed[15 * w + 20] = 1;  // interior
   std::vector<int32_t> d;
   ASSERT_TRUE(cpu::advancing_front(nb.data(), n, k, seed.data(), &d, kCpu).ok());
   EXPECT_EQ(d, bfs(nb, k, seed));
   // Manhattan distance to the nearer seed, by hand.
   for (int y = 0; y < w; ++y)
-    for (int x = 0; x < w; ++x)
-      ASSERT_EQ(d[y * w + x], std::min(x + y, std::abs(x - 20) + std::abs(y - 15)));
+    for (int x = 0; x < w; ++x) ASSERT_EQ(d[y * w + x], std::min(x + y, std::abs(x - 20) + std::abs(y - 15)));
   for (size_t i = grid; i < n; ++i) EXPECT_EQ(d[i], -1);
 }
 
@@ -391,9 +390,10 @@ TEST(SaliencyField, IgeaWithAHundredThousandSaliencyPoints) {
   for (size_t i = 0; i < nv / 5; ++i) low_mean += two[order[i]], high_mean += two[order[nv - 1 - i]];
   EXPECT_GT(low_mean / (nv / 5), 0.95f);
   EXPECT_LT(high_mean / (nv / 5), 0.25f);
-  std::printf("igea field: %zu vertices + 100000 saliency points, k = %d: %.3f s at 2 threads; "
-              "%zu at I = 1, %zu at the floor\n",
-              nv, o.k, seconds, at_one, at_floor);
+  std::printf(
+      "igea field: %zu vertices + 100000 saliency points, k = %d: %.3f s at 2 threads; "
+      "%zu at I = 1, %zu at the floor\n",
+      nv, o.k, seconds, at_one, at_floor);
 }
 
 }  // namespace

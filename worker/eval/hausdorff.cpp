@@ -4,17 +4,17 @@
 // through a CGAL AABB tree.
 #include "eval/hausdorff.h"
 
-#include <algorithm>
-#include <cmath>
-#include <string>
-#include <vector>
-
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
 #include <CGAL/AABB_triangle_primitive.h>
 #include <CGAL/Simple_cartesian.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
 
 #include "pipeline/rng.h"
 #include "pipeline/vec3.h"
@@ -39,7 +39,9 @@ struct SurfaceTree {
   SurfaceTree& operator=(const SurfaceTree&) = delete;
 };
 
-Point to_point(Vec3d v) { return {v.x, v.y, v.z}; }
+Point to_point(Vec3d v) {
+  return {v.x, v.y, v.z};
+}
 
 // Returns false when every face is degenerate for CGAL (exactly collinear corners),
 // which validate_mesh's floating-point area test can miss.
@@ -66,8 +68,7 @@ struct DirectedStats {
 };
 
 // Distances from `source` (area samples, then referenced vertices) to `target`.
-DirectedStats directed_distance(const Mesh& source, const SurfaceTree& target, size_t samples,
-                                uint64_t seed) {
+DirectedStats directed_distance(const Mesh& source, const SurfaceTree& target, size_t samples, uint64_t seed) {
   const size_t nf = source.face_count();
   const float* p = source.positions.data();
   const std::vector<double> areas = face_areas(source);
@@ -112,12 +113,10 @@ DirectedStats directed_distance(const Mesh& source, const SurfaceTree& target, s
   });
 
   std::vector<double> vertex_distance(vertices.size());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, vertices.size(), 1024),
-                    [&](const tbb::blocked_range<size_t>& r) {
-                      for (size_t i = r.begin(); i != r.end(); ++i)
-                        vertex_distance[i] =
-                            std::sqrt(target.tree.squared_distance(to_point(load3d(p, vertices[i]))));
-                    });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, vertices.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i)
+      vertex_distance[i] = std::sqrt(target.tree.squared_distance(to_point(load3d(p, vertices[i]))));
+  });
 
   // Serial sums in sample order: the result does not depend on the thread count.
   DirectedStats s;
@@ -140,8 +139,8 @@ StatusOr<HausdorffResult> hausdorff_distance(const Mesh& reference, const Mesh& 
   if (Status s = validate_mesh(reference); !s.ok()) return Status(s.code(), "reference mesh: " + s.message());
   if (Status s = validate_mesh(candidate); !s.ok()) return Status(s.code(), "candidate mesh: " + s.message());
   if (options.samples_per_mesh == 0 || options.samples_per_mesh > kMaxHausdorffSamples)
-    return invalid_argument("samples_per_mesh is " + std::to_string(options.samples_per_mesh) +
-                            ", it must be in [1, " + std::to_string(kMaxHausdorffSamples) + "]");
+    return invalid_argument("samples_per_mesh is " + std::to_string(options.samples_per_mesh) + ", it must be in [1, " +
+                            std::to_string(kMaxHausdorffSamples) + "]");
 
   SurfaceTree reference_tree, candidate_tree;
   if (!build_tree(reference, &reference_tree))

@@ -28,9 +28,9 @@ struct HausdorffOptions {
 
 struct HausdorffResult {
   // All in units of the reference's bounding-box diagonal.
-  double max = 0;      // max over both directions
-  double mean = 0;     // mean of the two directed means (area samples only: unbiased surface mean)
-  double rms = 0;      // mean of the two directed root-mean-square distances (area samples only)
+  double max = 0;           // max over both directions
+  double mean = 0;          // mean of the two directed means (area samples only: unbiased surface mean)
+  double rms = 0;           // mean of the two directed root-mean-square distances (area samples only)
   double forward_max = 0;   // reference -> candidate
   double backward_max = 0;  // candidate -> reference
   double diagonal = 0;      // reference bounding-box diagonal, model units

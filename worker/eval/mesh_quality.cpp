@@ -149,8 +149,10 @@ MeshQuality mesh_quality(const Mesh& mesh) {
     for (int k = 0; k < 3; ++k) {
       const uint32_t v = idx[3 * f + k], root = fans.find(uint32_t(3 * f + k));
       referenced[v] = 1;
-      if (fan_root[v] == kNone) fan_root[v] = root;
-      else if (fan_root[v] != root) non_manifold[v] = 1;
+      if (fan_root[v] == kNone)
+        fan_root[v] = root;
+      else if (fan_root[v] != root)
+        non_manifold[v] = 1;
     }
   }
 

@@ -1,6 +1,6 @@
-#include "gpu/cuda_device.h"
-
 #include <cuda_runtime.h>
+
+#include "gpu/cuda_device.h"
 
 namespace vpr {
 

@@ -103,8 +103,8 @@ Status scan_metadata(ByteReader* r, int depth) {
 
 Status check_count(uint32_t count, size_t limit, const char* what) {
   if (count > limit)
-    return resource_exhausted("Draco: the header declares " + std::to_string(count) + " " + what +
-                              ", the limit is " + std::to_string(limit));
+    return resource_exhausted("Draco: the header declares " + std::to_string(count) + " " + what + ", the limit is " +
+                              std::to_string(limit));
   return Status::Ok();
 }
 

@@ -5,12 +5,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <cfloat>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <cfloat>
 #include <filesystem>
 #include <new>
 
@@ -167,8 +167,7 @@ std::string quote(std::string_view token) {
 
 StatusOr<std::vector<uint8_t>> read_file(const std::string& path) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    return invalid_argument("cannot read '" + path + "': it is a directory");
+  if (std::filesystem::is_directory(path, ec)) return invalid_argument("cannot read '" + path + "': it is a directory");
   FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) return not_found("cannot open '" + path + "': " + std::strerror(errno));
   std::vector<uint8_t> bytes;
@@ -185,8 +184,8 @@ StatusOr<std::vector<uint8_t>> read_file(const std::string& path) {
     while ((n = std::fread(chunk, 1, sizeof chunk, f)) > 0) bytes.insert(bytes.end(), chunk, chunk + n);
     if (std::ferror(f)) status = internal_error("cannot read '" + path + "': " + std::strerror(errno));
   } catch (const std::bad_alloc&) {
-    status = resource_exhausted("cannot read '" + path + "': out of memory after " +
-                                std::to_string(bytes.size()) + " bytes");
+    status = resource_exhausted("cannot read '" + path + "': out of memory after " + std::to_string(bytes.size()) +
+                                " bytes");
   }
   std::fclose(f);
   if (!status.ok()) return status;
@@ -250,11 +249,16 @@ constexpr const char* kSupported = "(supported: .drc .obj .ply .off .stl)";
 
 const char* format_name(MeshFormat format) {
   switch (format) {
-    case MeshFormat::kDraco: return "Draco";
-    case MeshFormat::kObj: return "OBJ";
-    case MeshFormat::kPly: return "PLY";
-    case MeshFormat::kOff: return "OFF";
-    case MeshFormat::kStl: return "STL";
+    case MeshFormat::kDraco:
+      return "Draco";
+    case MeshFormat::kObj:
+      return "OBJ";
+    case MeshFormat::kPly:
+      return "PLY";
+    case MeshFormat::kOff:
+      return "OFF";
+    case MeshFormat::kStl:
+      return "STL";
   }
   return "mesh";
 }
@@ -268,11 +272,16 @@ Status prefixed(const Status& status, const std::string& prefix) {
 StatusOr<Mesh> parse_format(const uint8_t* data, size_t size, MeshFormat format, const MeshLimits& limits,
                             std::vector<float>* saliency) {
   switch (format) {
-    case MeshFormat::kDraco: return parse_draco(data, size, limits, saliency);
-    case MeshFormat::kObj: return parse_obj(data, size, limits);
-    case MeshFormat::kPly: return parse_ply(data, size, limits, saliency);
-    case MeshFormat::kOff: return parse_off(data, size, limits);
-    case MeshFormat::kStl: return parse_stl(data, size, limits);
+    case MeshFormat::kDraco:
+      return parse_draco(data, size, limits, saliency);
+    case MeshFormat::kObj:
+      return parse_obj(data, size, limits);
+    case MeshFormat::kPly:
+      return parse_ply(data, size, limits, saliency);
+    case MeshFormat::kOff:
+      return parse_off(data, size, limits);
+    case MeshFormat::kStl:
+      return parse_stl(data, size, limits);
   }
   return internal_error("unknown MeshFormat " + std::to_string(int(format)));
 }
@@ -349,8 +358,12 @@ Status write_mesh(const std::string& path, const Mesh& mesh, const float* salien
       VPR_ASSIGN_OR_RETURN(bytes, encode_draco(mesh, saliency, options));
       break;
     }
-    case MeshFormat::kPly: bytes = encode_ply(mesh, saliency); break;
-    case MeshFormat::kObj: bytes = encode_obj(mesh, saliency); break;
+    case MeshFormat::kPly:
+      bytes = encode_ply(mesh, saliency);
+      break;
+    case MeshFormat::kObj:
+      bytes = encode_obj(mesh, saliency);
+      break;
     case MeshFormat::kOff:
     case MeshFormat::kStl:
       return invalid_argument("cannot write '" + path + "': " + format_name(format) +

@@ -44,8 +44,7 @@ struct DracoOptions {
 // "saliency" plus red/green/blue from a color ramp; OBJ as vertex colors.
 StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* saliency, const DracoOptions& options);
 // .drc, .ply or .obj by extension (.off and .stl are input formats only).
-Status write_mesh(const std::string& path, const Mesh& mesh, const float* saliency,
-                  const DracoOptions& options = {});
+Status write_mesh(const std::string& path, const Mesh& mesh, const float* saliency, const DracoOptions& options = {});
 
 // Reads back the saliency attribute of a Draco file or PLY (empty if absent).
 StatusOr<std::vector<float>> read_saliency(const std::string& path);

@@ -12,7 +12,9 @@ namespace vpr::io_detail {
 
 namespace {
 
-std::string at_line(size_t line) { return "OBJ line " + std::to_string(line) + ": "; }
+std::string at_line(size_t line) {
+  return "OBJ line " + std::to_string(line) + ": ";
+}
 
 // Appends the shortest text that reads back as exactly the same float.
 void append_float(std::string* out, float v) {

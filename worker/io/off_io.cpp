@@ -36,7 +36,9 @@ class ContentLines {
   LineReader lines_;
 };
 
-std::string at_line(size_t line) { return "OFF line " + std::to_string(line) + ": "; }
+std::string at_line(size_t line) {
+  return "OFF line " + std::to_string(line) + ": ";
+}
 
 // "OFF", "COFF", "NOFF", "CNOFF", "STOFF", "4OFF", "nOFF" ...
 bool is_off_keyword(std::string_view token) {
@@ -56,7 +58,8 @@ StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& lim
   ContentLines lines(begin, end);
 
   std::string_view line;
-  if (!lines.next(&line)) return invalid_argument("OFF: the file has no header and no counts (only blanks or comments)");
+  if (!lines.next(&line))
+    return invalid_argument("OFF: the file has no header and no counts (only blanks or comments)");
   std::string_view rest = line;
   std::string_view first = next_token(&rest);
   if (is_off_keyword(first)) {
@@ -111,7 +114,8 @@ StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& lim
         return invalid_argument(at_line(lines.line_number()) + "vertex " + std::to_string(i) + " has " +
                                 std::to_string(k) + " coordinates, 3 are needed");
       if (!parse_float(token, &v))
-        return invalid_argument(at_line(lines.line_number()) + "vertex coordinate " + quote(token) + " is not a number");
+        return invalid_argument(at_line(lines.line_number()) + "vertex coordinate " + quote(token) +
+                                " is not a number");
       mesh.positions.push_back(v);
     }
   }

@@ -20,16 +20,16 @@ namespace vpr::io_detail {
 // saliency (may be nullptr): receives the per-vertex "saliency" values when
 // the file carries them (PLY vertex property, Draco attribute), else is cleared.
 StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& limits);
-StatusOr<Mesh> parse_ply(const uint8_t* data, size_t size, const MeshLimits& limits,
-                         std::vector<float>* saliency);
+StatusOr<Mesh> parse_ply(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency);
 StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& limits);
 StatusOr<Mesh> parse_stl(const uint8_t* data, size_t size, const MeshLimits& limits);
-StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& limits,
-                           std::vector<float>* saliency);
+StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency);
 
 // ---- Shared text scanning (implemented in mesh_io.cpp) ----------------------
 
-inline bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+inline bool is_blank(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
 
 // Splits [begin, end) into lines at '\n'; a trailing '\r' (CRLF files) is
 // dropped. The buffer need not be NUL-terminated.

@@ -21,11 +21,11 @@ bool ply_type_from_name(std::string_view name, PlyType* type) {
   static const struct {
     const char* name;
     PlyType type;
-  } kNames[] = {{"char", PlyType::kInt8},     {"int8", PlyType::kInt8},       {"uchar", PlyType::kUint8},
-                {"uint8", PlyType::kUint8},   {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
-                {"ushort", PlyType::kUint16}, {"uint16", PlyType::kUint16},   {"int", PlyType::kInt32},
-                {"int32", PlyType::kInt32},   {"uint", PlyType::kUint32},     {"uint32", PlyType::kUint32},
-                {"float", PlyType::kFloat32}, {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
+  } kNames[] = {{"char", PlyType::kInt8},      {"int8", PlyType::kInt8},       {"uchar", PlyType::kUint8},
+                {"uint8", PlyType::kUint8},    {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
+                {"ushort", PlyType::kUint16},  {"uint16", PlyType::kUint16},   {"int", PlyType::kInt32},
+                {"int32", PlyType::kInt32},    {"uint", PlyType::kUint32},     {"uint32", PlyType::kUint32},
+                {"float", PlyType::kFloat32},  {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
                 {"float64", PlyType::kFloat64}};
   for (const auto& entry : kNames) {
     if (name == entry.name) {
@@ -39,18 +39,24 @@ bool ply_type_from_name(std::string_view name, PlyType* type) {
 size_t ply_type_size(PlyType t) {
   switch (t) {
     case PlyType::kInt8:
-    case PlyType::kUint8: return 1;
+    case PlyType::kUint8:
+      return 1;
     case PlyType::kInt16:
-    case PlyType::kUint16: return 2;
+    case PlyType::kUint16:
+      return 2;
     case PlyType::kInt32:
     case PlyType::kUint32:
-    case PlyType::kFloat32: return 4;
-    case PlyType::kFloat64: return 8;
+    case PlyType::kFloat32:
+      return 4;
+    case PlyType::kFloat64:
+      return 8;
   }
   return 1;
 }
 
-bool ply_type_is_integer(PlyType t) { return t != PlyType::kFloat32 && t != PlyType::kFloat64; }
+bool ply_type_is_integer(PlyType t) {
+  return t != PlyType::kFloat32 && t != PlyType::kFloat64;
+}
 
 struct PlyProperty {
   std::string name;
@@ -74,7 +80,9 @@ struct PlyHeader {
   size_t body_line = 0;    // line number of the first body line (ASCII messages)
 };
 
-std::string header_line(size_t line) { return "PLY header line " + std::to_string(line) + ": "; }
+std::string header_line(size_t line) {
+  return "PLY header line " + std::to_string(line) + ": ";
+}
 
 StatusOr<PlyHeader> parse_ply_header(const char* begin, const char* end, const MeshLimits& limits) {
   LineReader lines(begin, end);
@@ -131,8 +139,7 @@ StatusOr<PlyHeader> parse_ply_header(const char* begin, const char* end, const M
         property.is_list = true;
         const std::string_view count_type = next_token(&rest);
         if (!ply_type_from_name(count_type, &property.count_type) || !ply_type_is_integer(property.count_type))
-          return invalid_argument(header_line(n) + "list count type " + quote(count_type) +
-                                  " is not an integer type");
+          return invalid_argument(header_line(n) + "list count type " + quote(count_type) + " is not an integer type");
         type = next_token(&rest);
       }
       if (!ply_type_from_name(type, &property.type))
@@ -168,14 +175,48 @@ class BinarySource {
     }
     p_ += n;
     switch (t) {
-      case PlyType::kInt8: *out = double(int8_t(b[0])); break;
-      case PlyType::kUint8: *out = double(b[0]); break;
-      case PlyType::kInt16: { int16_t v; std::memcpy(&v, b, 2); *out = v; break; }
-      case PlyType::kUint16: { uint16_t v; std::memcpy(&v, b, 2); *out = v; break; }
-      case PlyType::kInt32: { int32_t v; std::memcpy(&v, b, 4); *out = v; break; }
-      case PlyType::kUint32: { uint32_t v; std::memcpy(&v, b, 4); *out = v; break; }
-      case PlyType::kFloat32: { float v; std::memcpy(&v, b, 4); *out = v; break; }
-      case PlyType::kFloat64: { double v; std::memcpy(&v, b, 8); *out = v; break; }
+      case PlyType::kInt8:
+        *out = double(int8_t(b[0]));
+        break;
+      case PlyType::kUint8:
+        *out = double(b[0]);
+        break;
+      case PlyType::kInt16: {
+        int16_t v;
+        std::memcpy(&v, b, 2);
+        *out = v;
+        break;
+      }
+      case PlyType::kUint16: {
+        uint16_t v;
+        std::memcpy(&v, b, 2);
+        *out = v;
+        break;
+      }
+      case PlyType::kInt32: {
+        int32_t v;
+        std::memcpy(&v, b, 4);
+        *out = v;
+        break;
+      }
+      case PlyType::kUint32: {
+        uint32_t v;
+        std::memcpy(&v, b, 4);
+        *out = v;
+        break;
+      }
+      case PlyType::kFloat32: {
+        float v;
+        std::memcpy(&v, b, 4);
+        *out = v;
+        break;
+      }
+      case PlyType::kFloat64: {
+        double v;
+        std::memcpy(&v, b, 8);
+        *out = v;
+        break;
+      }
     }
     return Read::kOk;
   }
@@ -228,9 +269,7 @@ class AsciiSource {
   }
   // An upper bound (the whole body), enough to cap reservations.
   size_t remaining() const { return size_; }
-  std::string where() const {
-    return "PLY line " + std::to_string(first_line_ + tokens_.line_number() - 1) + ": ";
-  }
+  std::string where() const { return "PLY line " + std::to_string(first_line_ + tokens_.line_number() - 1) + ": "; }
   std::string bad_token() const { return quote(token_); }
 
  private:
@@ -265,11 +304,11 @@ Status read_list_count(Source& src, const PlyElement& e, const PlyProperty& p, u
   const Read r = src.read_int(p.count_type, &n);
   if (r == Read::kEnd) return invalid_argument(ends_after(e, i));
   if (r == Read::kBad)
-    return invalid_argument(src.where() + "list length " + src.bad_token() + " of " + e.name + " " +
-                            std::to_string(i) + " is not an integer");
+    return invalid_argument(src.where() + "list length " + src.bad_token() + " of " + e.name + " " + std::to_string(i) +
+                            " is not an integer");
   if (n < 0 || n > int64_t(UINT32_MAX))
-    return invalid_argument(src.where() + e.name + " " + std::to_string(i) + " has a list '" + p.name +
-                            "' of length " + std::to_string(n));
+    return invalid_argument(src.where() + e.name + " " + std::to_string(i) + " has a list '" + p.name + "' of length " +
+                            std::to_string(n));
   *count = uint64_t(n);
   return Status::Ok();
 }
@@ -283,16 +322,16 @@ Status read_property(Source& src, const PlyElement& e, const PlyProperty& p, uin
     const Read r = src.skip(p.type, n);
     if (r == Read::kEnd) return invalid_argument(ends_after(e, i));
     if (r == Read::kBad)
-      return invalid_argument(src.where() + src.bad_token() + " is not a number (" + e.name + " " +
-                              std::to_string(i) + ", list '" + p.name + "')");
+      return invalid_argument(src.where() + src.bad_token() + " is not a number (" + e.name + " " + std::to_string(i) +
+                              ", list '" + p.name + "')");
     return Status::Ok();
   }
   double v = 0;
   const Read r = src.read(p.type, &v);
   if (r == Read::kEnd) return invalid_argument(ends_after(e, i));
   if (r == Read::kBad)
-    return invalid_argument(src.where() + src.bad_token() + " is not a number (" + e.name + " " +
-                            std::to_string(i) + ", property '" + p.name + "')");
+    return invalid_argument(src.where() + src.bad_token() + " is not a number (" + e.name + " " + std::to_string(i) +
+                            ", property '" + p.name + "')");
   if (value) *value = v;
   return Status::Ok();
 }
@@ -330,7 +369,8 @@ Status read_body(Source& src, const PlyHeader& header, bool ascii, const MeshLim
         }
       }
       for (int r = 0; r < 3; ++r) {
-        if (!have[r]) return invalid_argument(std::string("PLY: the vertex element has no '") + kRoleNames[r] + "' property");
+        if (!have[r])
+          return invalid_argument(std::string("PLY: the vertex element has no '") + kRoleNames[r] + "' property");
       }
       mesh->positions.reserve(3 * plausible);
       const bool want_saliency = saliency && have[3];
@@ -380,9 +420,8 @@ Status read_body(Source& src, const PlyHeader& header, bool ascii, const MeshLim
               return invalid_argument(src.where() + "vertex index " + src.bad_token() + " of face " +
                                       std::to_string(i) + " is not an integer");
             if (index < 0 || uint64_t(index) >= nv)
-              return invalid_argument("PLY: face " + std::to_string(i) + " references vertex " +
-                                      std::to_string(index) + " but the file has " + std::to_string(nv) +
-                                      " vertices");
+              return invalid_argument("PLY: face " + std::to_string(i) + " references vertex " + std::to_string(index) +
+                                      " but the file has " + std::to_string(nv) + " vertices");
             const uint32_t v = uint32_t(index);
             if (k == 0) first = v;
             if (k >= 2) VPR_RETURN_IF_ERROR(push_fan_triangle(*mesh, first, prev, v, limits, "PLY: "));
@@ -468,7 +507,8 @@ std::vector<uint8_t> encode_ply(const Mesh& mesh, const float* saliency) {
 
 Status write_point_ply(const std::string& path, const float* points, size_t n, const uint8_t* colors) {
   using namespace io_detail;
-  if (n > 0 && points == nullptr) return invalid_argument("write_point_ply: points is null for " + std::to_string(n) + " points");
+  if (n > 0 && points == nullptr)
+    return invalid_argument("write_point_ply: points is null for " + std::to_string(n) + " points");
   std::string header = "ply\nformat binary_little_endian 1.0\ncomment vpremesh debug points\n";
   header += "element vertex " + std::to_string(n) + "\n";
   header += "property float x\nproperty float y\nproperty float z\n";

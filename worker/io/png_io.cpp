@@ -48,8 +48,7 @@ Status write_png_pixels(const std::string& path, int width, int height, uint32_t
 }  // namespace
 
 Status write_png(const std::string& path, const GrayImage& image) {
-  return write_png_pixels(path, image.width, image.height, PNG_FORMAT_GRAY, image.pixels.data(),
-                          image.pixels.size());
+  return write_png_pixels(path, image.width, image.height, PNG_FORMAT_GRAY, image.pixels.data(), image.pixels.size());
 }
 
 Status write_mask_png(const std::string& path, const Mask& mask) {

@@ -12,8 +12,7 @@
 namespace vpr {
 namespace cpu {
 
-Status visual_quantity(const Mesh& mesh, const float* importance, std::vector<double>* quantity,
-                       const ExecContext&) {
+Status visual_quantity(const Mesh& mesh, const float* importance, std::vector<double>* quantity, const ExecContext&) {
   assert(quantity != nullptr && importance != nullptr);
   const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
   for (size_t v = 0; v < nv; ++v) {
@@ -41,14 +40,13 @@ Status distribute_counts(const double* quantity, size_t face_count, uint32_t tar
   for (size_t f = 0; f < face_count; ++f) {
     const double q = quantity[f];
     if (!(q >= 0.0) || !std::isfinite(q))
-      return invalid_argument("sample counts: face " + std::to_string(f) + " has visual quantity " +
-                              std::to_string(q) + ", it must be finite and >= 0");
+      return invalid_argument("sample counts: face " + std::to_string(f) + " has visual quantity " + std::to_string(q) +
+                              ", it must be finite and >= 0");
     prefix[f + 1] = prefix[f] + q;
   }
   const double total = prefix[face_count];
   if (!(total > 0.0)) return invalid_argument("zero visual quantity: all faces degenerate");
-  if (!std::isfinite(total))
-    return invalid_argument("sample counts: the total visual quantity overflows a double");
+  if (!std::isfinite(total)) return invalid_argument("sample counts: the total visual quantity overflows a double");
 
   // Eq. (9): offsets[i] = round(S_i), S_i = target * prefix_i / total. S is
   // monotone in the prefix (multiplying and dividing by positive numbers keeps
@@ -77,10 +75,9 @@ Status sample_triangles(const Mesh& mesh, const float* importance, const uint32_
   if (offsets[0] != 0) return invalid_argument("sampling: offsets[0] = " + std::to_string(offsets[0]) + ", not 0");
   for (size_t f = 0; f < nf; ++f) {
     if (uint64_t(offsets[f]) + counts[f] != offsets[f + 1])
-      return invalid_argument("sampling: offsets[" + std::to_string(f + 1) + "] = " +
-                              std::to_string(offsets[f + 1]) + " is not offsets[" + std::to_string(f) +
-                              "] + counts[" + std::to_string(f) + "] = " +
-                              std::to_string(uint64_t(offsets[f]) + counts[f]));
+      return invalid_argument("sampling: offsets[" + std::to_string(f + 1) + "] = " + std::to_string(offsets[f + 1]) +
+                              " is not offsets[" + std::to_string(f) + "] + counts[" + std::to_string(f) +
+                              "] = " + std::to_string(uint64_t(offsets[f]) + counts[f]));
   }
   const size_t total = offsets[nf];
   points->resize(3 * total);

@@ -17,7 +17,7 @@
 namespace vpr {
 
 struct SamplingOptions {
-  uint64_t seed = 1;  // Philox key: same seed, same points on every device and thread count
+  uint64_t seed = 1;                  // Philox key: same seed, same points on every device and thread count
   uint32_t adaptive_min_samples = 5;  // Section IV-B: n_i < 5 -> uniform sampling
 };
 
@@ -41,16 +41,16 @@ Status visual_quantity(const Mesh& mesh, const float* importance, std::vector<do
 // offsets[i] never drifts more than 1/2 from S_i.
 // quantity: #F values, finite and >= 0 with a positive sum (else
 // INVALID_ARGUMENT; a zero sum means every face is degenerate).
-Status distribute_counts(const double* quantity, size_t face_count, uint32_t target,
-                         std::vector<uint32_t>* counts, std::vector<uint32_t>* offsets, const ExecContext& ctx);
+Status distribute_counts(const double* quantity, size_t face_count, uint32_t target, std::vector<uint32_t>* counts,
+                         std::vector<uint32_t>* offsets, const ExecContext& ctx);
 
 // Eq. (11-16): writes offsets[F] points (3 floats each) and their interpolated
 // importance; sample j of face f is stored at offsets[f] + j. Faces with
 // counts[f] < adaptive_min_samples are sampled uniformly in area, the others by
 // the inverse CDFs (sample_point in sampling_kernels.h). offsets must be the
 // exclusive prefix sum of counts (else INVALID_ARGUMENT).
-Status sample_triangles(const Mesh& mesh, const float* importance, const uint32_t* counts,
-                        const uint32_t* offsets, const SamplingOptions& options, std::vector<float>* points,
+Status sample_triangles(const Mesh& mesh, const float* importance, const uint32_t* counts, const uint32_t* offsets,
+                        const SamplingOptions& options, std::vector<float>* points,
                         std::vector<float>* point_importance, const ExecContext& ctx);
 
 }  // namespace cpu

@@ -67,8 +67,7 @@ StatusOr<double> awlop_support_radius(AwlopSupport support, float h_factor, doub
     return double(h_factor) * mean_input_edge;
   }
   if (!(area > 0) || !std::isfinite(area))
-    return invalid_argument("AWLOP kTargetSpacing support needs a positive surface area, got " +
-                            std::to_string(area));
+    return invalid_argument("AWLOP kTargetSpacing support needs a positive surface area, got " + std::to_string(area));
   if (target == 0) return invalid_argument("AWLOP kTargetSpacing support needs a target vertex count >= 1");
   return double(h_factor) * std::sqrt(area / double(target));
 }
@@ -90,7 +89,10 @@ double nearest_neighbor_cv(const float* points, size_t n) {
   });
   // Sequential sums: the same value at any thread count.
   double sum = 0, sum2 = 0;
-  for (double d : nn) { sum += d; sum2 += d * d; }
+  for (double d : nn) {
+    sum += d;
+    sum2 += d * d;
+  }
   const double mean = sum / double(n);
   if (mean <= 0) return 0.0;
   const double var = std::max(0.0, sum2 / double(n) - mean * mean);
@@ -107,8 +109,8 @@ Status awlop(const float* input_points, size_t np, float* particles, const float
   for (size_t i = 0; i < nx; ++i) {
     const float imp = particle_importance[i];
     if (!(imp > 0.0f && imp <= 1.0f))
-      return invalid_argument("AWLOP particle importance must lie in (0, 1]; particle " + std::to_string(i) +
-                              " has " + std::to_string(imp));
+      return invalid_argument("AWLOP particle importance must lie in (0, 1]; particle " + std::to_string(i) + " has " +
+                              std::to_string(imp));
   }
   if (!(h > 0) || !std::isfinite(h))
     return invalid_argument("AWLOP support radius h must be positive and finite, got " + std::to_string(h));
@@ -177,8 +179,7 @@ Status awlop(const float* input_points, size_t np, float* particles, const float
         double r2_min = std::numeric_limits<double>::infinity();
         for (size_t t = 0; t < found; ++t) r2_min = std::min(r2_min, norm2(load3d(input_points, idx[t]) - x));
         for (size_t t = 0; t < found; ++t)
-          awlop_add_attraction(&attraction, x, load3d(input_points, idx[t]), density[idx[t]], r2_min, inv_h2,
-                               r_floor);
+          awlop_add_attraction(&attraction, x, load3d(input_points, idx[t]), density[idx[t]], r2_min, inv_h2, r_floor);
 
         // Eq. (18): repulsion from the k nearest other particles, weighted by 1 / I.
         AwlopSum repulsion;
@@ -192,8 +193,7 @@ Status awlop(const float* input_points, size_t np, float* particles, const float
         kept = std::min(kept, size_t(options.k));
         for (size_t t = 0; t < kept; ++t) r2_min = std::min(r2_min, norm2(load3d(current.data(), idx[t]) - x));
         for (size_t t = 0; t < kept; ++t)
-          awlop_add_repulsion(&repulsion, x, load3d(current.data(), idx[t]), weight[idx[t]], r2_min, inv_h2,
-                              r_floor);
+          awlop_add_repulsion(&repulsion, x, load3d(current.data(), idx[t]), weight[idx[t]], r2_min, inv_h2, r_floor);
 
         const Vec3d moved = awlop_update(x, attraction, repulsion, mu);
         store3(next.data(), i, Vec3{float(moved.x), float(moved.y), float(moved.z)});

@@ -44,14 +44,15 @@ enum class AwlopSupport {
 };
 
 struct AwlopOptions {
-  float mu = 0.45f;        // Eq. (17): repulsion strength
-  int k = 20;              // neighbours searched for attraction and repulsion (paper: 20)
+  float mu = 0.45f;  // Eq. (17): repulsion strength
+  int k = 20;        // neighbours searched for attraction and repulsion (paper: 20)
   // Measured default: with kTargetSpacing, 10 iterations give ~95% of the CV
   // reduction that 40 do (see AwlopSupport).
   int iterations = 10;
   AwlopSupport support = AwlopSupport::kTargetSpacing;
-  float h_factor = 2.0f;   // h = h_factor x the length `support` names (paper: 2 L_avg)
-  int attraction_samples_per_target = 8;  // input points: uniform surface samples per target vertex (measured: docs/pipeline.md)
+  float h_factor = 2.0f;  // h = h_factor x the length `support` names (paper: 2 L_avg)
+  int attraction_samples_per_target =
+      8;  // input points: uniform surface samples per target vertex (measured: docs/pipeline.md)
 };
 
 struct AwlopStats {
@@ -62,7 +63,9 @@ struct AwlopStats {
 };
 
 // theta(r) = exp(-16 r^2 / h^2) (Eq. 17-18).
-inline double awlop_theta(double r, double h) { return std::exp(-16.0 * r * r / (h * h)); }
+inline double awlop_theta(double r, double h) {
+  return std::exp(-16.0 * r * r / (h * h));
+}
 
 // The support radius h for `support` (see AwlopSupport). mean_input_edge: mean
 // edge length of the input mesh; area: its total area; target: output vertex
@@ -84,8 +87,8 @@ namespace cpu {
 // model units (awlop_support_radius). stats may be null.
 // INVALID_ARGUMENT for np == 0, non-finite coordinates, importance outside
 // (0, 1], h <= 0, k < 1, iterations < 0 or mu < 0. Threads: TBB's current arena.
-Status awlop(const float* input_points, size_t np, float* particles, const float* particle_importance,
-             size_t nx, double h, const AwlopOptions& options, AwlopStats* stats, const ExecContext& ctx);
+Status awlop(const float* input_points, size_t np, float* particles, const float* particle_importance, size_t nx,
+             double h, const AwlopOptions& options, AwlopStats* stats, const ExecContext& ctx);
 
 }  // namespace cpu
 }  // namespace vpr

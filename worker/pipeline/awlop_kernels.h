@@ -17,7 +17,9 @@
 namespace vpr {
 
 // Eq. (17-18): theta(r) = exp(-16 r^2 / h^2), written on r^2 to skip a sqrt.
-VPR_HD inline double awlop_theta2(double r2, double inv_h2) { return std::exp(-16.0 * r2 * inv_h2); }
+VPR_HD inline double awlop_theta2(double r2, double inv_h2) {
+  return std::exp(-16.0 * r2 * inv_h2);
+}
 
 // theta(r) / theta(r_min): the shifted kernel above; r2 >= r2_min gives a value in (0, 1].
 VPR_HD inline double awlop_theta2_shifted(double r2, double r2_min, double inv_h2) {
@@ -39,8 +41,8 @@ struct AwlopSum {
 
 // Eq. (17): one input point p (density weight v) near particle x.
 // r2_min: the smallest squared distance from x among its input neighbours.
-VPR_HD inline void awlop_add_attraction(AwlopSum* sum, Vec3d x, Vec3d p, double v, double r2_min,
-                                        double inv_h2, double r_floor) {
+VPR_HD inline void awlop_add_attraction(AwlopSum* sum, Vec3d x, Vec3d p, double v, double r2_min, double inv_h2,
+                                        double r_floor) {
   const double r2 = norm2(p - x);
   const double a = awlop_theta2_shifted(r2, r2_min, inv_h2) * awlop_inv_distance(r2, r_floor) / v;
   sum->weighted = sum->weighted + p * a;
@@ -49,8 +51,8 @@ VPR_HD inline void awlop_add_attraction(AwlopSum* sum, Vec3d x, Vec3d p, double 
 
 // Eq. (18): one other particle q (adaptive weight w_q = 1 / I(c_q)) near particle x.
 // r2_min: the smallest squared distance from x among its particle neighbours.
-VPR_HD inline void awlop_add_repulsion(AwlopSum* sum, Vec3d x, Vec3d q, double w, double r2_min,
-                                       double inv_h2, double r_floor) {
+VPR_HD inline void awlop_add_repulsion(AwlopSum* sum, Vec3d x, Vec3d q, double w, double r2_min, double inv_h2,
+                                       double r_floor) {
   const Vec3d d = x - q;
   const double r2 = norm2(d);
   const double b = w * awlop_theta2_shifted(r2, r2_min, inv_h2) * awlop_inv_distance(r2, r_floor);

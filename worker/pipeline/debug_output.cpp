@@ -30,8 +30,8 @@ Status write_feature_overlay(const std::string& path, const Snapshot& snapshot, 
   return write_rgb_png(path, w, h, rgb.data());
 }
 
-Status write_view_debug(const std::string& dir, const View& view, const Snapshot& snapshot,
-                        const FeatureImages& f, const std::vector<float>& view_points) {
+Status write_view_debug(const std::string& dir, const View& view, const Snapshot& snapshot, const FeatureImages& f,
+                        const std::vector<float>& view_points) {
   const std::string base = dir + "/view_" + file_safe(view.name);
   VPR_RETURN_IF_ERROR(write_png(base + "_snapshot.png", snapshot.gray));
   VPR_RETURN_IF_ERROR(write_png(base + "_filtered.png", f.filtered));

@@ -8,6 +8,9 @@
 // parabola, so the result is the true distance, identical at any thread count.
 #include "distance_transform.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cassert>
 #include <cmath>
@@ -15,9 +18,6 @@
 #include <limits>
 #include <string>
 #include <vector>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 namespace vpr::cpu {
 namespace {
@@ -95,8 +95,8 @@ Status distance_transform(const Mask& seeds, FloatImage* dist, const ExecContext
   assert(dist != nullptr);
   const int w = seeds.width, h = seeds.height;
   if (w <= 0 || h <= 0 || seeds.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("distance_transform: image is " + std::to_string(w) + " x " + std::to_string(h) +
-                            " with " + std::to_string(seeds.pixels.size()) +
+    return invalid_argument("distance_transform: image is " + std::to_string(w) + " x " + std::to_string(h) + " with " +
+                            std::to_string(seeds.pixels.size()) +
                             " pixels; need a non-empty image with width * height pixels");
   }
   *dist = FloatImage(w, h, std::numeric_limits<float>::infinity());

@@ -11,6 +11,8 @@ struct ExecContext {
   void* stream = nullptr;  // cudaStream_t for the GPU twins; unused on the CPU
 };
 
-inline const char* device_name(Device d) { return d == Device::kCuda ? "cuda" : "cpu"; }
+inline const char* device_name(Device d) {
+  return d == Device::kCuda ? "cuda" : "cpu";
+}
 
 }  // namespace vpr

@@ -21,8 +21,8 @@ struct Image {
   bool in_bounds(int x, int y) const { return x >= 0 && y >= 0 && x < width && y < height; }
 };
 
-using GrayImage = Image<uint8_t>;   // 0..255 shaded intensity
-using Mask = Image<uint8_t>;        // 0 or 1
+using GrayImage = Image<uint8_t>;  // 0..255 shaded intensity
+using Mask = Image<uint8_t>;       // 0 or 1
 using FloatImage = Image<float>;
 
 }  // namespace vpr

@@ -21,7 +21,9 @@ constexpr float kSkeletonMinDistance = 2.0f;
 // ridge of unit slope (a tent), for a pixel to be a skeleton pixel.
 constexpr float kSkeletonMinResponse = 0.5f;
 
-VPR_HD inline int clamp_index(int i, int n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
+VPR_HD inline int clamp_index(int i, int n) {
+  return i < 0 ? 0 : (i >= n ? n - 1 : i);
+}
 
 // Median of the (2r+1) x (2r+1) window around (x, y), edges clamped.
 // Bitwise binary search for the value of rank k/2 (0-based, k = window size):
@@ -51,8 +53,7 @@ VPR_HD inline uint8_t median_at(const uint8_t* img, int w, int h, int x, int y, 
 // 255 * 2^16 < 2^31, so int32 accumulation is exact. kClamped = false skips the
 // edge clamping and is for windows known to lie inside the image.
 template <bool kClamped = true>
-VPR_HD inline int64_t gaussian_sum_at(const uint8_t* gray, int w, int h, int x, int y, const int* weights,
-                                      int n) {
+VPR_HD inline int64_t gaussian_sum_at(const uint8_t* gray, int w, int h, int x, int y, const int* weights, int n) {
   const int r = n / 2;
   int32_t sum = 0;
   for (int j = 0; j < n; ++j) {

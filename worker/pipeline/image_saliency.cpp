@@ -56,8 +56,8 @@ Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& opt
   const Mask& coverage = snapshot.coverage;
   if (coverage.width != w || coverage.height != h || coverage.pixels.size() != snapshot.gray.pixels.size()) {
     return invalid_argument("detect_features: coverage is " + std::to_string(coverage.width) + " x " +
-                            std::to_string(coverage.height) + " but the gray image is " + std::to_string(w) +
-                            " x " + std::to_string(h));
+                            std::to_string(coverage.height) + " but the gray image is " + std::to_string(w) + " x " +
+                            std::to_string(h));
   }
 
   // Section III-A: the median pre-filter removes shading noise.
@@ -73,8 +73,8 @@ Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& opt
   // Eq. (1)-(3) on the filtered image. The background is 0, so near the
   // silhouette the mean is dark and the object's rim is not marked; the
   // silhouette pixels themselves are left to the silhouette filter.
-  VPR_RETURN_IF_ERROR(inner_features(out->filtered, out->foreground, options.gaussian_size,
-                                     options.gaussian_sigma, options.threshold_c, &out->inner, ctx));
+  VPR_RETURN_IF_ERROR(inner_features(out->filtered, out->foreground, options.gaussian_size, options.gaussian_sigma,
+                                     options.threshold_c, &out->inner, ctx));
   for (size_t i = 0; i < out->inner.pixels.size(); ++i) out->inner.pixels[i] &= !out->silhouette.pixels[i];
 
   // Eq. (4), kept on the foreground only (0 on the background, for the debug images).
@@ -84,8 +84,8 @@ Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& opt
   }
 
   // Eq. (5).
-  VPR_RETURN_IF_ERROR(skeleton(out->silhouette_distance, out->foreground, options.skeleton_lambda,
-                               &out->skeleton, ctx));
+  VPR_RETURN_IF_ERROR(
+      skeleton(out->silhouette_distance, out->foreground, options.skeleton_lambda, &out->skeleton, ctx));
 
   // The feature-size threshold is given for 512 px views and scales with the image.
   const float threshold_px = options.thin_feature_px * float(std::max(w, h)) / 512.f;

@@ -24,14 +24,14 @@ struct ImageSaliencyOptions {
 };
 
 struct FeatureImages {
-  GrayImage filtered;   // median-filtered gray image
-  Mask foreground;      // coverage after the same median (majority) filter; parts under 4 px wide vanish
-  Mask silhouette;      // foreground pixels with a background 4-neighbour
-  Mask inner;           // inner features (Eq. 1-3), silhouette pixels removed
+  GrayImage filtered;              // median-filtered gray image
+  Mask foreground;                 // coverage after the same median (majority) filter; parts under 4 px wide vanish
+  Mask silhouette;                 // foreground pixels with a background 4-neighbour
+  Mask inner;                      // inner features (Eq. 1-3), silhouette pixels removed
   FloatImage silhouette_distance;  // Eq. (4): distance (px) of foreground pixels to the silhouette; 0 on background
-  Mask skeleton;        // Eq. (5)
-  Mask thin;            // silhouette pixels of thin features (thin_feature_px, see thin_features)
-  Mask features;        // inner | thin: the pixels that become saliency points
+  Mask skeleton;                   // Eq. (5)
+  Mask thin;                       // silhouette pixels of thin features (thin_feature_px, see thin_features)
+  Mask features;                   // inner | thin: the pixels that become saliency points
 };
 
 namespace cpu {

@@ -8,13 +8,13 @@
 // pixels.
 #include "inner_feature.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <string>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "image_kernels.h"
 
@@ -63,8 +63,8 @@ namespace {
 
 // sum[x] += weight * (a[x] + b[x]) for x < count. Blocks of 8 with a fixed trip
 // count: -O2's cheap vectorizer takes those, not loops that need a remainder.
-inline void add_weighted(float* __restrict sum, const float* __restrict a, const float* __restrict b,
-                         float weight, int count) {
+inline void add_weighted(float* __restrict sum, const float* __restrict a, const float* __restrict b, float weight,
+                         int count) {
   int x = 0;
   for (; x + 8 <= count; x += 8)
     for (int k = 0; k < 8; ++k) sum[x + k] += weight * (a[x + k] + b[x + k]);
@@ -80,19 +80,19 @@ inline void add_weighted(float* __restrict sum, const float* __restrict a, float
 
 }  // namespace
 
-Status inner_features(const GrayImage& filtered, const Mask& foreground, int n, float sigma, int c,
-                      Mask* features, const ExecContext& /*ctx*/) {
+Status inner_features(const GrayImage& filtered, const Mask& foreground, int n, float sigma, int c, Mask* features,
+                      const ExecContext& /*ctx*/) {
   assert(features != nullptr);
   const int w = filtered.width, h = filtered.height;
   if (w <= 0 || h <= 0 || filtered.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("inner_features: image is " + std::to_string(w) + " x " + std::to_string(h) +
-                            " with " + std::to_string(filtered.pixels.size()) +
+    return invalid_argument("inner_features: image is " + std::to_string(w) + " x " + std::to_string(h) + " with " +
+                            std::to_string(filtered.pixels.size()) +
                             " pixels; need a non-empty image with width * height pixels");
   }
   if (foreground.width != w || foreground.height != h || foreground.pixels.size() != filtered.pixels.size()) {
     return invalid_argument("inner_features: foreground is " + std::to_string(foreground.width) + " x " +
-                            std::to_string(foreground.height) + " but the image is " + std::to_string(w) +
-                            " x " + std::to_string(h));
+                            std::to_string(foreground.height) + " but the image is " + std::to_string(w) + " x " +
+                            std::to_string(h));
   }
   if (n < 1 || n % 2 == 0 || n > 63) {
     return invalid_argument("inner_features: window size n = " + std::to_string(n) +

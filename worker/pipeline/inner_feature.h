@@ -18,8 +18,8 @@ namespace cpu {
 
 // features(x, y) = 1 where foreground(x, y) and T(x, y) > P(x, y) (Eq. 3), with
 // P the filtered gray value and T the weighted mean (Eq. 2) minus C.
-Status inner_features(const GrayImage& filtered, const Mask& foreground, int n, float sigma, int c,
-                      Mask* features, const ExecContext& ctx);
+Status inner_features(const GrayImage& filtered, const Mask& foreground, int n, float sigma, int c, Mask* features,
+                      const ExecContext& ctx);
 
 }  // namespace cpu
 }  // namespace vpr

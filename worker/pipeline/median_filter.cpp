@@ -6,12 +6,12 @@
 // (image_kernels.h); both are exact, so they agree pixel for pixel.
 #include "median_filter.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <string>
 #include <vector>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "image_kernels.h"
 

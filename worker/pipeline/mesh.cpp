@@ -28,17 +28,15 @@ Status validate_mesh(const Mesh& mesh, const MeshLimits& limits) {
                               std::to_string(limits.max_faces));
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     if (!std::isfinite(mesh.positions[i]))
-      return invalid_argument("vertex " + std::to_string(i / 3) +
-                              " has a non-finite coordinate (NaN or infinity)");
+      return invalid_argument("vertex " + std::to_string(i / 3) + " has a non-finite coordinate (NaN or infinity)");
   }
   for (size_t i = 0; i < mesh.indices.size(); ++i) {
     if (mesh.indices[i] >= nv)
       return invalid_argument("face " + std::to_string(i / 3) + " references vertex " +
-                              std::to_string(mesh.indices[i]) + " but the mesh has " +
-                              std::to_string(nv) + " vertices");
+                              std::to_string(mesh.indices[i]) + " but the mesh has " + std::to_string(nv) +
+                              " vertices");
   }
-  if (!(total_area(mesh) > 0.0))
-    return invalid_argument("degenerate mesh: every face has zero area");
+  if (!(total_area(mesh) > 0.0)) return invalid_argument("degenerate mesh: every face has zero area");
   return Status::Ok();
 }
 

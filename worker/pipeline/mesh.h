@@ -38,7 +38,9 @@ struct MeshLimits {
 Status validate_mesh(const Mesh& mesh, const MeshLimits& limits = {});
 
 Aabb bounding_box(const float* positions, size_t vertex_count);
-inline Aabb bounding_box(const Mesh& m) { return bounding_box(m.positions.data(), m.vertex_count()); }
+inline Aabb bounding_box(const Mesh& m) {
+  return bounding_box(m.positions.data(), m.vertex_count());
+}
 
 // Area of each face (#F doubles) and their sum; degenerate faces have area 0.
 std::vector<double> face_areas(const Mesh& mesh);

@@ -11,11 +11,11 @@
 #include <CGAL/Polygon_mesh_processing/connected_components.h>
 #include <CGAL/Polygon_mesh_processing/manifoldness.h>
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
-#include <CGAL/boost/graph/Euler_operations.h>
 #include <CGAL/Polygon_mesh_processing/orientation.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Surface_mesh.h>
+#include <CGAL/boost/graph/Euler_operations.h>
 
 #include <algorithm>
 #include <array>
@@ -112,7 +112,10 @@ void orient_open_components(SurfaceMesh& sm) {
     for (VertexIndex v : sm.vertices_around_face(sm.halfedge(f))) {
       const Point& p = sm.point(v);
       auto& c = centroid[component[f]];
-      c[0] += p.x(); c[1] += p.y(); c[2] += p.z(); c[3] += 1;
+      c[0] += p.x();
+      c[1] += p.y();
+      c[2] += p.z();
+      c[3] += 1;
     }
   }
   for (size_t c = 0; c < count; ++c) {
@@ -150,8 +153,7 @@ void canonical_order(std::vector<Triangle>* triangles) {
 
 // soup_points: the n input points in input order (as CGAL points); soup: triangles over them.
 Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points, std::vector<Triangle> soup,
-                   const MeshingOptions& options, Mesh* out, std::vector<uint32_t>* source_point,
-                   MeshingStats* stats) {
+                   const MeshingOptions& options, Mesh* out, std::vector<uint32_t>* source_point, MeshingStats* stats) {
   // Consistent orientation; points are duplicated (appended after the n inputs)
   // wherever the facets meet along a non-manifold edge or vertex.
   PMP::orient_polygon_soup(soup_points, soup);
@@ -181,10 +183,16 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
   if (!bridges.empty()) split += PMP::duplicate_non_manifold_vertices(sm);
   size_t filled = 0, left = 0;
   for (const auto& [border, length] : boundary_cycles(sm)) {
-    if (length > options.max_hole_edges) { ++left; continue; }
+    if (length > options.max_hole_edges) {
+      ++left;
+      continue;
+    }
     std::vector<FaceIndex> patch;
     PMP::triangulate_hole(sm, border, std::back_inserter(patch));
-    if (patch.empty()) { ++left; continue; }
+    if (patch.empty()) {
+      ++left;
+      continue;
+    }
     if (longest_edge(sm, patch) > max_edge) {
       for (FaceIndex f : patch) CGAL::Euler::remove_face(sm.halfedge(f), sm);
       ++left;

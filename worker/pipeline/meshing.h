@@ -25,7 +25,7 @@ struct MeshingOptions {
 struct MeshingStats {
   size_t points_in = 0;
   size_t vertices_out = 0;
-  size_t points_dropped = 0;   // points the reconstruction left out
+  size_t points_dropped = 0;  // points the reconstruction left out
   size_t holes_filled = 0;
   size_t holes_left = 0;
   size_t bridges_removed = 0;  // faces removed for an edge over max_edge_ratio

@@ -41,7 +41,9 @@ class StageRunner {
 
 // Spacing of a regular triangle mesh with `count` vertices covering `area`:
 // F ~ 2V triangles of area (sqrt 3 / 4) l^2 each.
-double target_spacing(double area, uint32_t count) { return std::sqrt(2.0 * area / (std::sqrt(3.0) * count)); }
+double target_spacing(double area, uint32_t count) {
+  return std::sqrt(2.0 * area / (std::sqrt(3.0) * count));
+}
 
 // The pipeline runs on a copy of the input centred on its bounding box and
 // scaled to a unit diagonal, so that no tolerance anywhere (CGAL, FLANN,
@@ -85,8 +87,8 @@ void denormalize(const Normalization& norm, std::vector<float>* positions) {
 Status validate_options(const PipelineOptions& o) {
   if (o.target_vertices < kMinTargetVertices || o.target_vertices > kMaxTargetVertices)
     return invalid_argument("target of " + std::to_string(o.target_vertices) +
-                            " vertices is outside the supported range [" + std::to_string(kMinTargetVertices) +
-                            ", " + std::to_string(kMaxTargetVertices) + "]");
+                            " vertices is outside the supported range [" + std::to_string(kMinTargetVertices) + ", " +
+                            std::to_string(kMaxTargetVertices) + "]");
   if (o.views.count != 6 && o.views.count != 14)
     return invalid_argument("views must be 6 or 14, got " + std::to_string(o.views.count));
   if (o.views.resolution < 64 || o.views.resolution > 4096)
@@ -202,8 +204,8 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     VPR_RETURN_IF_ERROR(cpu::visual_quantity(input, result.input_importance.data(), &quantity, ctx));
     VPR_RETURN_IF_ERROR(
         cpu::distribute_counts(quantity.data(), quantity.size(), options.target_vertices, &counts, &offsets, ctx));
-    return cpu::sample_triangles(input, result.input_importance.data(), counts.data(), offsets.data(),
-                                 options.sampling, &particles, &particle_importance, ctx);
+    return cpu::sample_triangles(input, result.input_importance.data(), counts.data(), offsets.data(), options.sampling,
+                                 &particles, &particle_importance, ctx);
   }));
 
   // Stage 6: AWLOP. Its input points are area-uniform samples of the input
@@ -219,19 +221,18 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     uniform.adaptive_min_samples = UINT32_MAX;
     VPR_RETURN_IF_ERROR(cpu::sample_triangles(input, ones.data(), counts.data(), offsets.data(), uniform,
                                               &surface_points, &unused, ctx));
-    VPR_ASSIGN_OR_RETURN(const double h, awlop_support_radius(options.awlop.support, options.awlop.h_factor,
-                                                             mean_edge, area,
-                                                             options.target_vertices));
-    return cpu::awlop(surface_points.data(), surface_points.size() / 3, particles.data(),
-                      particle_importance.data(), particle_importance.size(), h, options.awlop, &result.awlop, ctx);
+    VPR_ASSIGN_OR_RETURN(const double h, awlop_support_radius(options.awlop.support, options.awlop.h_factor, mean_edge,
+                                                              area, options.target_vertices));
+    return cpu::awlop(surface_points.data(), surface_points.size() / 3, particles.data(), particle_importance.data(),
+                      particle_importance.size(), h, options.awlop, &result.awlop, ctx);
   }));
 
   // Stage 7: mesh the optimized points; each output vertex keeps its
   // particle's importance as its saliency value.
   VPR_RETURN_IF_ERROR(stage.run("meshing", cpu, [&]() -> Status {
     std::vector<uint32_t> source;
-    VPR_RETURN_IF_ERROR(mesh_points(particles.data(), particles.size() / 3, options.meshing, &result.mesh, &source,
-                                    &result.meshing));
+    VPR_RETURN_IF_ERROR(
+        mesh_points(particles.data(), particles.size() / 3, options.meshing, &result.mesh, &source, &result.meshing));
     result.saliency.resize(source.size());
     for (size_t v = 0; v < source.size(); ++v) result.saliency[v] = particle_importance[source[v]];
     return Status::Ok();

@@ -36,7 +36,7 @@ struct PipelineOptions {
   SamplingOptions sampling;
   AwlopOptions awlop;
   MeshingOptions meshing;
-  std::string debug_dir;         // when set: per-view PNGs and saliency points as PLY
+  std::string debug_dir;  // when set: per-view PNGs and saliency points as PLY
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
 };
@@ -49,13 +49,13 @@ struct StageTiming {
 };
 
 struct PipelineResult {
-  Mesh mesh;                          // the remeshed surface
-  std::vector<float> saliency;        // #V_out importance values in [min_importance, 1]
+  Mesh mesh;                            // the remeshed surface
+  std::vector<float> saliency;          // #V_out importance values in [min_importance, 1]
   std::vector<float> input_importance;  // #V_in: the saliency field on the input mesh
-  size_t saliency_points = 0;         // 3D points unprojected from feature pixels
+  size_t saliency_points = 0;           // 3D points unprojected from feature pixels
   std::vector<StageTiming> stages;
   double total_ms = 0;
-  std::string renderer;               // renderer description
+  std::string renderer;  // renderer description
   AwlopStats awlop;
   MeshingStats meshing;
 };

@@ -21,14 +21,16 @@ VPR_HD inline uint32_t mulhilo32(uint32_t a, uint32_t b, uint32_t* hi) {
 }
 
 // counter: (c0, c1, c2, c3); key: (k0, k1).
-VPR_HD inline Philox4 philox4x32_10(uint32_t c0, uint32_t c1, uint32_t c2, uint32_t c3, uint32_t k0,
-                                    uint32_t k1) {
+VPR_HD inline Philox4 philox4x32_10(uint32_t c0, uint32_t c1, uint32_t c2, uint32_t c3, uint32_t k0, uint32_t k1) {
   for (int round = 0; round < 10; ++round) {
     uint32_t hi0, hi1;
     const uint32_t lo0 = mulhilo32(0xD2511F53u, c0, &hi0);
     const uint32_t lo1 = mulhilo32(0xCD9E8D57u, c2, &hi1);
     const uint32_t n0 = hi1 ^ c1 ^ k0, n2 = hi0 ^ c3 ^ k1;
-    c0 = n0; c1 = lo1; c2 = n2; c3 = lo0;
+    c0 = n0;
+    c1 = lo1;
+    c2 = n2;
+    c3 = lo0;
     k0 += 0x9E3779B9u;
     k1 += 0xBB67AE85u;
   }
@@ -36,7 +38,9 @@ VPR_HD inline Philox4 philox4x32_10(uint32_t c0, uint32_t c1, uint32_t c2, uint3
 }
 
 // Uniform float in [0, 1) from the top 24 bits: exact in float on every device.
-VPR_HD inline float uniform01(uint32_t bits) { return float(bits >> 8) * (1.0f / 16777216.0f); }
+VPR_HD inline float uniform01(uint32_t bits) {
+  return float(bits >> 8) * (1.0f / 16777216.0f);
+}
 
 // Four uniforms for sample `index` of element `element` under `seed`.
 VPR_HD inline Philox4 random4(uint64_t seed, uint64_t element, uint64_t index) {

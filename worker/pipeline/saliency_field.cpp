@@ -8,12 +8,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <flann/flann.hpp>
 #include <limits>
 #include <optional>
 #include <string>
 #include <utility>
-
-#include <flann/flann.hpp>
 
 namespace vpr {
 
@@ -94,8 +93,8 @@ Status knn_graph(const float* points, size_t n, int k, std::vector<uint32_t>* ne
   assert(neighbors != nullptr);
   if (k < 1) return invalid_argument("k-NN graph: k = " + std::to_string(k) + ", it must be at least 1");
   if (n <= size_t(k))
-    return invalid_argument("k-NN graph: " + std::to_string(n) + " points (n) cannot have k = " +
-                            std::to_string(k) + " neighbours each; n must exceed k");
+    return invalid_argument("k-NN graph: " + std::to_string(n) + " points (n) cannot have k = " + std::to_string(k) +
+                            " neighbours each; n must exceed k");
   if (n > std::numeric_limits<uint32_t>::max())
     return resource_exhausted("k-NN graph: " + std::to_string(n) + " points, the limit is " +
                               std::to_string(std::numeric_limits<uint32_t>::max()));
@@ -121,8 +120,8 @@ Status knn_graph(const float* points, size_t n, int k, std::vector<uint32_t>* ne
   return Status::Ok();
 }
 
-Status advancing_front(const uint32_t* neighbors, size_t n, int k, const uint8_t* is_seed,
-                       std::vector<int32_t>* depth, const ExecContext&) {
+Status advancing_front(const uint32_t* neighbors, size_t n, int k, const uint8_t* is_seed, std::vector<int32_t>* depth,
+                       const ExecContext&) {
   assert(depth != nullptr);
   if (k < 1) return invalid_argument("advancing front: k = " + std::to_string(k) + ", it must be at least 1");
   if (n > size_t(std::numeric_limits<int32_t>::max()))
@@ -132,15 +131,16 @@ Status advancing_front(const uint32_t* neighbors, size_t n, int k, const uint8_t
   for (size_t i = 0; i < n * kk; ++i) {
     if (neighbors[i] >= n)
       return invalid_argument("advancing front: node " + std::to_string(i / kk) + " lists neighbour " +
-                              std::to_string(neighbors[i]) + " but the graph has " + std::to_string(n) +
-                              " nodes");
+                              std::to_string(neighbors[i]) + " but the graph has " + std::to_string(n) + " nodes");
   }
 
   depth->assign(n, -1);
   std::vector<uint32_t> unreached;
   for (size_t i = 0; i < n; ++i) {
-    if (is_seed[i]) (*depth)[i] = 0;
-    else unreached.push_back(uint32_t(i));
+    if (is_seed[i])
+      (*depth)[i] = 0;
+    else
+      unreached.push_back(uint32_t(i));
   }
 
   // Algorithm 1, one parallel sweep per front step. Reads see only the depths of
@@ -150,22 +150,23 @@ Status advancing_front(const uint32_t* neighbors, size_t n, int k, const uint8_t
   const int32_t* d_read = depth->data();
   for (int32_t step = 0; !unreached.empty(); ++step) {
     hit.assign(unreached.size(), 0);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, unreached.size(), 1024),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                        for (size_t u = r.begin(); u != r.end(); ++u) {
-                          const uint32_t* row = neighbors + size_t(unreached[u]) * kk;
-                          for (size_t j = 0; j < kk; ++j) {
-                            if (d_read[row[j]] == step) {
-                              hit[u] = 1;
-                              break;
-                            }
-                          }
-                        }
-                      });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, unreached.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t u = r.begin(); u != r.end(); ++u) {
+        const uint32_t* row = neighbors + size_t(unreached[u]) * kk;
+        for (size_t j = 0; j < kk; ++j) {
+          if (d_read[row[j]] == step) {
+            hit[u] = 1;
+            break;
+          }
+        }
+      }
+    });
     size_t kept = 0;
     for (size_t u = 0; u < unreached.size(); ++u) {
-      if (hit[u]) (*depth)[unreached[u]] = step + 1;
-      else unreached[kept++] = unreached[u];
+      if (hit[u])
+        (*depth)[unreached[u]] = step + 1;
+      else
+        unreached[kept++] = unreached[u];
     }
     if (kept == unreached.size()) break;  // the front stopped: the rest is unreachable
     unreached.resize(kept);
@@ -180,8 +181,7 @@ Status saliency_field(const float* vertices, size_t vertex_count, const float* s
   if (options.k < 1)
     return invalid_argument("saliency field: k = " + std::to_string(options.k) + ", it must be at least 1");
   if (!(options.beta > 0.0f && options.beta < 1.0f))
-    return invalid_argument("saliency field: beta = " + std::to_string(options.beta) +
-                            ", it must lie in (0, 1)");
+    return invalid_argument("saliency field: beta = " + std::to_string(options.beta) + ", it must lie in (0, 1)");
   if (!(options.min_importance > 0.0f && options.min_importance <= 1.0f))
     return invalid_argument("saliency field: min_importance = " + std::to_string(options.min_importance) +
                             ", it must lie in (0, 1]");

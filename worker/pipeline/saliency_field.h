@@ -16,8 +16,8 @@
 namespace vpr {
 
 struct SaliencyFieldOptions {
-  int k = 10;            // Algorithm 1: neighbours per node of the k-NN graph (k >= 1)
-  float beta = 0.7f;     // Algorithm 1: I = beta^d, 0 < beta < 1
+  int k = 10;         // Algorithm 1: neighbours per node of the k-NN graph (k >= 1)
+  float beta = 0.7f;  // Algorithm 1: I = beta^d, 0 < beta < 1
   // Our addition: a floor on I, so that regions far from every feature still get
   // samples (the paper's I tends to 0 there and the mesher would leave holes).
   // 0 < min_importance <= 1; unreachable vertices get exactly this value.
@@ -60,8 +60,8 @@ Status knn_graph(const float* points, size_t n, int k, std::vector<uint32_t>* ne
 // Equals BFS on the directed graph with an edge j -> i iff j is in N(i).
 // neighbors: n x k (as from knn_graph); is_seed: n flags. Seeds have depth 0;
 // unreachable nodes get -1.
-Status advancing_front(const uint32_t* neighbors, size_t n, int k, const uint8_t* is_seed,
-                       std::vector<int32_t>* depth, const ExecContext& ctx);
+Status advancing_front(const uint32_t* neighbors, size_t n, int k, const uint8_t* is_seed, std::vector<int32_t>* depth,
+                       const ExecContext& ctx);
 
 // Importance of each mesh vertex (#V floats in [min_importance, 1]).
 // vertices: #V x 3 floats; saliency_points: #S x 3 floats, both model space.

@@ -53,8 +53,10 @@ VPR_HD inline double adaptive_s_d(double r, double ia, double ib, double ic) {
   for (int it = 0; it < 60; ++it) {
     const double f = adaptive_marginal_cdf(s, ia, m) - goal;
     if (f == 0.0) break;
-    if (f < 0.0) lo = s;
-    else hi = s;
+    if (f < 0.0)
+      lo = s;
+    else
+      hi = s;
     const double g = s * ((1.0 - s) * ia + s * m);  // G'(s)
     double next = g > 0.0 ? s - f / g : lo - 1.0;
     if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);

@@ -3,13 +3,13 @@
 // for the GPU twin.
 #include "silhouette_feature.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "distance_transform.h"
 #include "image_kernels.h"
@@ -19,17 +19,17 @@ namespace {
 
 Status check_mask(const char* what, const Mask& m, int w, int h) {
   if (m.width != w || m.height != h || m.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument(std::string(what) + " is " + std::to_string(m.width) + " x " +
-                            std::to_string(m.height) + " with " + std::to_string(m.pixels.size()) +
-                            " pixels; expected " + std::to_string(w) + " x " + std::to_string(h));
+    return invalid_argument(std::string(what) + " is " + std::to_string(m.width) + " x " + std::to_string(m.height) +
+                            " with " + std::to_string(m.pixels.size()) + " pixels; expected " + std::to_string(w) +
+                            " x " + std::to_string(h));
   }
   return Status::Ok();
 }
 
 Status check_size(const char* what, int w, int h) {
   if (w <= 0 || h <= 0) {
-    return invalid_argument(std::string(what) + ": image is " + std::to_string(w) + " x " +
-                            std::to_string(h) + "; need a non-empty image");
+    return invalid_argument(std::string(what) + ": image is " + std::to_string(w) + " x " + std::to_string(h) +
+                            "; need a non-empty image");
   }
   return Status::Ok();
 }
@@ -68,8 +68,7 @@ Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, i
   }
   VPR_RETURN_IF_ERROR(check_mask("skeleton: foreground", foreground, w, h));
   if (lambda < 2 || lambda % 2 != 0 || lambda > 64) {
-    return invalid_argument("skeleton: lambda = " + std::to_string(lambda) +
-                            " must be even and in [2, 64] (Eq. 5)");
+    return invalid_argument("skeleton: lambda = " + std::to_string(lambda) + " must be even and in [2, 64] (Eq. 5)");
   }
   const int m = lambda / 2;  // Eq. (5): the kernel spans lambda + 1 pixels, m each way
   // One array for the kernel: D on the foreground, 0 elsewhere.
@@ -83,16 +82,17 @@ Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, i
     const bool inside_rows = y >= m && y < h - m;
     for (int x = 0; x < w; ++x) {
       const bool inside = inside_rows && x >= m && x < w - m;
-      out[size_t(y) * w + x] = (inside ? skeleton_at<false>(masked.data(), w, h, x, y, m)
-                                       : skeleton_at<true>(masked.data(), w, h, x, y, m)) ? 1 : 0;
+      out[size_t(y) * w + x] =
+          (inside ? skeleton_at<false>(masked.data(), w, h, x, y, m) : skeleton_at<true>(masked.data(), w, h, x, y, m))
+              ? 1
+              : 0;
     }
   });
   return Status::Ok();
 }
 
 Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask& skeleton,
-                     const FloatImage& silhouette_distance, float threshold_px, Mask* thin,
-                     const ExecContext& ctx) {
+                     const FloatImage& silhouette_distance, float threshold_px, Mask* thin, const ExecContext& ctx) {
   assert(thin != nullptr);
   const int w = foreground.width, h = foreground.height;
   VPR_RETURN_IF_ERROR(check_size("thin_features", w, h));
@@ -101,13 +101,12 @@ Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask&
   VPR_RETURN_IF_ERROR(check_mask("thin_features: skeleton", skeleton, w, h));
   if (silhouette_distance.width != w || silhouette_distance.height != h ||
       silhouette_distance.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("thin_features: distance map is " + std::to_string(silhouette_distance.width) +
-                            " x " + std::to_string(silhouette_distance.height) + "; expected " +
-                            std::to_string(w) + " x " + std::to_string(h));
+    return invalid_argument("thin_features: distance map is " + std::to_string(silhouette_distance.width) + " x " +
+                            std::to_string(silhouette_distance.height) + "; expected " + std::to_string(w) + " x " +
+                            std::to_string(h));
   }
   if (!(threshold_px >= 0.f) || !std::isfinite(threshold_px)) {
-    return invalid_argument("thin_features: threshold " + std::to_string(threshold_px) +
-                            " px must be finite and >= 0");
+    return invalid_argument("thin_features: threshold " + std::to_string(threshold_px) + " px must be finite and >= 0");
   }
 
   // Feature size: distance from each silhouette pixel to the skeleton.

@@ -29,7 +29,6 @@ Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, i
 //  - with no skeleton pixel at all, every silhouette pixel is thin when the
 //    largest distance over the foreground is below threshold_px.
 Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask& skeleton,
-                     const FloatImage& silhouette_distance, float threshold_px, Mask* thin,
-                     const ExecContext& ctx);
+                     const FloatImage& silhouette_distance, float threshold_px, Mask* thin, const ExecContext& ctx);
 
 }  // namespace vpr::cpu

@@ -11,14 +11,14 @@
 // is tessellation, not shape.
 #include "snapshot.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
 #include <unordered_map>
-
-#include <tbb/parallel_for.h>
 
 #include "gl_functions.h"
 #include "vec3.h"
@@ -46,7 +46,7 @@ StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind) {
 namespace gl {
 namespace {
 
-constexpr double kSmoothingAngleDeg = 60;  // faces meeting at a sharper angle keep their crease
+constexpr double kSmoothingAngleDeg = 60;   // faces meeting at a sharper angle keep their crease
 constexpr double kAmbient = 0.15;           // gray floor, so grazing faces stay distinct from background
 constexpr double kLightTiltDegrees = 25.0;  // headlight tilt toward the view's upper left
 constexpr GLenum kMultisample = 0x809D;     // GL_MULTISAMPLE (GL 1.3)

@@ -14,7 +14,7 @@ namespace vpr::cpu {
 // Appends one model-space point (3 floats) to *points for every pixel with
 // features(x, y) != 0 and depth(x, y) < 1, in row-major pixel order. The pixel
 // centre (x + 0.5, y + 0.5) is unprojected with view.inv_view_proj.
-Status unproject_features(const Mask& features, const FloatImage& depth, const View& view,
-                          std::vector<float>* points, const ExecContext& ctx);
+Status unproject_features(const Mask& features, const FloatImage& depth, const View& view, std::vector<float>* points,
+                          const ExecContext& ctx);
 
 }  // namespace vpr::cpu

@@ -15,9 +15,9 @@
 namespace vpr {
 
 struct ViewOptions {
-  int count = 6;          // 6 (axes) or 14 (axes + 8 diagonals)
-  int resolution = 512;   // square images, resolution x resolution pixels, in [16, 8192]
-  float margin = 0.05f;   // empty border around the model, as a fraction of the image, in [0, 0.45)
+  int count = 6;         // 6 (axes) or 14 (axes + 8 diagonals)
+  int resolution = 512;  // square images, resolution x resolution pixels, in [16, 8192]
+  float margin = 0.05f;  // empty border around the model, as a fraction of the image, in [0, 0.45)
   // Orientation: the paper uses the model's own axes; we align to the principal
   // axes (PCA, area-weighted) by default, which the paper left as future work.
   bool pca_align = true;
@@ -30,7 +30,7 @@ struct ViewOptions {
 using Mat4 = std::array<double, 16>;
 
 struct View {
-  std::string name;   // side of the aligned model the camera is on: "+x", "-x", ..., "+x+y+z"
+  std::string name;  // side of the aligned model the camera is on: "+x", "-x", ..., "+x+y+z"
   int width = 0;
   int height = 0;
   Mat4 view_proj{};      // model space -> clip space (includes the alignment rotation)
