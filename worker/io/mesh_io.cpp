@@ -96,18 +96,29 @@ Status push_fan_triangle(Mesh& mesh, uint32_t first, uint32_t prev, uint32_t v, 
   return Status::Ok();
 }
 
-bool parse_double(std::string_view token, double* out) {
+namespace {
+
+// from_chars over the whole token (after an optional '+'); false when the
+// token is empty or has trailing characters.
+template <class T>
+bool from_chars_whole(std::string_view token, T* out, std::errc* ec) {
   token = strip_plus(token);
   if (token.empty()) return false;
-  const char* b = token.data();
-  const char* e = b + token.size();
-  auto [ptr, ec] = std::from_chars(b, e, *out);
-  if (ptr != e) return false;
+  const auto result = std::from_chars(token.data(), token.data() + token.size(), *out);
+  *ec = result.ec;
+  return result.ptr == token.data() + token.size();
+}
+
+}  // namespace
+
+bool parse_double(std::string_view token, double* out) {
+  std::errc ec{};
+  if (!from_chars_whole(token, out, &ec)) return false;
   if (ec == std::errc::result_out_of_range) {
     // from_chars leaves *out untouched here; strtod gives +-HUGE_VAL or a
     // value near zero, which is what the number means. The copy makes the
     // token NUL-terminated (the input buffer is not).
-    const std::string copy(token);
+    const std::string copy(strip_plus(token));
     *out = std::strtod(copy.c_str(), nullptr);
     return true;
   }
@@ -115,12 +126,8 @@ bool parse_double(std::string_view token, double* out) {
 }
 
 bool parse_float(std::string_view token, float* out) {
-  token = strip_plus(token);
-  if (token.empty()) return false;
-  const char* b = token.data();
-  const char* e = b + token.size();
-  auto [ptr, ec] = std::from_chars(b, e, *out);
-  if (ptr != e) return false;
+  std::errc ec{};
+  if (!from_chars_whole(token, out, &ec)) return false;
   if (ec == std::errc::result_out_of_range) {
     double d = 0;
     if (!parse_double(token, &d)) return false;

@@ -160,6 +160,14 @@ StatusOr<PlyHeader> parse_ply_header(const char* begin, const char* end, const M
 
 enum class Read { kOk, kEnd, kBad };
 
+// A value of type T from little-endian bytes (memcpy: b need not be aligned).
+template <class T>
+double load(const uint8_t* b) {
+  T v;
+  std::memcpy(&v, b, sizeof v);
+  return double(v);
+}
+
 class BinarySource {
  public:
   BinarySource(const uint8_t* p, const uint8_t* end, bool big_endian) : p_(p), end_(end), big_(big_endian) {}
@@ -176,47 +184,29 @@ class BinarySource {
     p_ += n;
     switch (t) {
       case PlyType::kInt8:
-        *out = double(int8_t(b[0]));
+        *out = load<int8_t>(b);
         break;
       case PlyType::kUint8:
-        *out = double(b[0]);
+        *out = load<uint8_t>(b);
         break;
-      case PlyType::kInt16: {
-        int16_t v;
-        std::memcpy(&v, b, 2);
-        *out = v;
+      case PlyType::kInt16:
+        *out = load<int16_t>(b);
         break;
-      }
-      case PlyType::kUint16: {
-        uint16_t v;
-        std::memcpy(&v, b, 2);
-        *out = v;
+      case PlyType::kUint16:
+        *out = load<uint16_t>(b);
         break;
-      }
-      case PlyType::kInt32: {
-        int32_t v;
-        std::memcpy(&v, b, 4);
-        *out = v;
+      case PlyType::kInt32:
+        *out = load<int32_t>(b);
         break;
-      }
-      case PlyType::kUint32: {
-        uint32_t v;
-        std::memcpy(&v, b, 4);
-        *out = v;
+      case PlyType::kUint32:
+        *out = load<uint32_t>(b);
         break;
-      }
-      case PlyType::kFloat32: {
-        float v;
-        std::memcpy(&v, b, 4);
-        *out = v;
+      case PlyType::kFloat32:
+        *out = load<float>(b);
         break;
-      }
-      case PlyType::kFloat64: {
-        double v;
-        std::memcpy(&v, b, 8);
-        *out = v;
+      case PlyType::kFloat64:
+        *out = load<double>(b);
         break;
-      }
     }
     return Read::kOk;
   }
