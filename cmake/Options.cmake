@@ -12,3 +12,10 @@ set(CMAKE_CXX_STANDARD 17)
 set(CMAKE_CXX_STANDARD_REQUIRED ON)
 set(CMAKE_POSITION_INDEPENDENT_CODE ON)
 set(CMAKE_EXPORT_COMPILE_COMMANDS ON)
+
+# ccache, when installed, makes rebuilds in several build folders cheap.
+find_program(VPR_CCACHE ccache)
+if(VPR_CCACHE)
+  set(CMAKE_CXX_COMPILER_LAUNCHER ${VPR_CCACHE})
+  set(CMAKE_CUDA_COMPILER_LAUNCHER ${VPR_CCACHE})
+endif()

@@ -1,5 +1,9 @@
 #include <cuda_runtime.h>
 
+#include <cstdint>
+#include <utility>
+
+#include "gpu/cuda_check.h"
 #include "gpu/cuda_device.h"
 
 namespace vpr {
@@ -20,6 +24,42 @@ std::vector<CudaDeviceInfo> cuda_devices(std::string* why) {
   }
   if (out.empty() && why) *why = "no CUDA device found";
   return out;
+}
+
+Status init_cuda_device(int device) {
+  VPR_CUDA_TRY(cudaSetDevice(device));
+  cudaMemPool_t pool;
+  VPR_CUDA_TRY(cudaDeviceGetDefaultMemPool(&pool, device));
+  uint64_t keep = UINT64_MAX;  // never hand freed pool memory back to the driver
+  VPR_CUDA_TRY(cudaMemPoolSetAttribute(pool, cudaMemPoolAttrReleaseThreshold, &keep));
+  return Status::Ok();
+}
+
+StatusOr<CudaStream> CudaStream::create(int device) {
+  VPR_CUDA_TRY(cudaSetDevice(device));
+  cudaStream_t s = nullptr;
+  VPR_CUDA_TRY(cudaStreamCreateWithFlags(&s, cudaStreamNonBlocking));
+  CudaStream out;
+  out.stream_ = s;
+  return StatusOr<CudaStream>(std::move(out));
+}
+
+CudaStream& CudaStream::operator=(CudaStream&& o) noexcept {
+  if (this != &o) {
+    if (stream_) cudaStreamDestroy(static_cast<cudaStream_t>(stream_));
+    stream_ = o.stream_;
+    o.stream_ = nullptr;
+  }
+  return *this;
+}
+
+CudaStream::~CudaStream() {
+  if (stream_) cudaStreamDestroy(static_cast<cudaStream_t>(stream_));
+}
+
+Status CudaStream::synchronize() const {
+  VPR_CUDA_TRY(cudaStreamSynchronize(static_cast<cudaStream_t>(stream_)));
+  return Status::Ok();
 }
 
 }  // namespace vpr
