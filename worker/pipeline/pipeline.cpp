@@ -133,13 +133,17 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     return Status::Ok();
   }));
 
-  std::unique_ptr<Renderer> renderer;
+  std::unique_ptr<Renderer> own_renderer;
+  Renderer* renderer = options.shared_renderer;
   std::vector<Snapshot> snapshots;
   {
     const auto start = Clock::now();
-    auto created = create_renderer(options.renderer);
-    if (!created.ok()) return Status(created.status().code(), "render: " + created.status().message());
-    renderer = std::move(created).value();
+    if (!renderer) {
+      auto created = create_renderer(options.renderer);
+      if (!created.ok()) return Status(created.status().code(), "render: " + created.status().message());
+      own_renderer = std::move(created).value();
+      renderer = own_renderer.get();
+    }
     result.renderer = renderer->description();
     Status status = renderer->render(input, views, &snapshots);
     result.stages.push_back({"render", ms_since(start), result.renderer, ""});

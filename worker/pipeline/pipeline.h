@@ -27,10 +27,22 @@ namespace vpr {
 inline constexpr uint32_t kMinTargetVertices = 100;
 inline constexpr uint32_t kMaxTargetVertices = 2'000'000;
 
+// Where the parallel stages run. kAuto: a CUDA GPU when the build has the twins
+// and a device answers, else the CPU. kCuda: the GPU is required
+// (UNAVAILABLE when there is none); a stage that fails on it still reruns on
+// the CPU and its timing says why.
+enum class DevicePolicy { kAuto, kCpu, kCuda };
+
 struct PipelineOptions {
   uint32_t target_vertices = 0;  // required: output vertex count (within 2%)
   ViewOptions views;
   RendererKind renderer = RendererKind::kAuto;
+  // A renderer to reuse (a warm worker keeps one: creating a GL context costs
+  // tens of milliseconds). Null: the job creates its own of kind `renderer`.
+  Renderer* shared_renderer = nullptr;
+  DevicePolicy device = DevicePolicy::kAuto;
+  int cuda_device = 0;            // which GPU, when one is used
+  DeviceBudget* device_budget = nullptr;  // null: no per-job device memory limit
   ImageSaliencyOptions image;
   SaliencyFieldOptions field;
   SamplingOptions sampling;
