@@ -12,4 +12,12 @@ using Command = std::function<int()>;
 Command add_local_command(CLI::App& app);
 Command add_eval_command(CLI::App& app);
 
+#ifdef VPR_HAVE_SERVICE_CLIENT
+// The service (submit_command.cpp, job_commands.cpp): jobs on a vpremesh-server.
+Command add_submit_command(CLI::App& app);
+Command add_status_command(CLI::App& app);
+Command add_watch_command(CLI::App& app);
+Command add_cancel_command(CLI::App& app);
+#endif
+
 }  // namespace vpr::cli

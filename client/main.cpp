@@ -10,6 +10,12 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   const vpr::cli::Command local = vpr::cli::add_local_command(app);
   const vpr::cli::Command eval = vpr::cli::add_eval_command(app);
+#ifdef VPR_HAVE_SERVICE_CLIENT
+  const vpr::cli::Command submit = vpr::cli::add_submit_command(app);
+  const vpr::cli::Command status = vpr::cli::add_status_command(app);
+  const vpr::cli::Command watch = vpr::cli::add_watch_command(app);
+  const vpr::cli::Command cancel = vpr::cli::add_cancel_command(app);
+#endif
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -18,5 +24,11 @@ int main(int argc, char** argv) {
   }
   if (app.got_subcommand("local")) return local();
   if (app.got_subcommand("eval")) return eval();
+#ifdef VPR_HAVE_SERVICE_CLIENT
+  if (app.got_subcommand("submit")) return submit();
+  if (app.got_subcommand("status")) return status();
+  if (app.got_subcommand("watch")) return watch();
+  if (app.got_subcommand("cancel")) return cancel();
+#endif
   return vpr::cli::kExitUsage;
 }

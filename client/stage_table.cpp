@@ -24,6 +24,14 @@ std::string format_stage_table(const PipelineResult& result, const RunSummary& s
   out += header;
   out += row("read", "cpu", s.read_ms);
   double total = s.read_ms + s.write_ms;
+  if (s.upload_ms >= 0) {
+    out += row("upload", "network", s.upload_ms);
+    total += s.upload_ms;
+  }
+  if (s.queue_ms >= 0) {
+    out += row("queue", "server", s.queue_ms);
+    total += s.queue_ms;
+  }
   for (const StageTiming& t : result.stages) {
     out += row(t.name, t.device, t.ms);
     if (!t.note.empty()) out += "                 note: " + t.note + "\n";
@@ -45,6 +53,14 @@ nlohmann::json report_json(const PipelineResult& result, const RunSummary& s) {
   nlohmann::json stages = nlohmann::json::array();
   stages.push_back({{"name", "read"}, {"ms", s.read_ms}, {"device", "cpu"}});
   double total = s.read_ms + s.write_ms;
+  if (s.upload_ms >= 0) {
+    stages.push_back({{"name", "upload"}, {"ms", s.upload_ms}, {"device", "network"}});
+    total += s.upload_ms;
+  }
+  if (s.queue_ms >= 0) {
+    stages.push_back({{"name", "queue"}, {"ms", s.queue_ms}, {"device", "server"}});
+    total += s.queue_ms;
+  }
   for (const StageTiming& t : result.stages) {
     nlohmann::json j = {{"name", t.name}, {"ms", t.ms}, {"device", t.device}};
     if (!t.note.empty()) j["note"] = t.note;

@@ -19,6 +19,10 @@ struct RunSummary {
   uint32_t target_vertices = 0;
   double read_ms = 0;   // input decode
   double write_ms = 0;  // output encode
+  // Service runs only (negative: not shown): the client sending the upload,
+  // and the job waiting in the server's queue.
+  double upload_ms = -1;
+  double queue_ms = -1;
 };
 
 std::string format_stage_table(const PipelineResult& result, const RunSummary& summary);

@@ -21,6 +21,17 @@ if(NOT VPR_EGL AND NOT VPR_OSMESA)
   message(FATAL_ERROR "vpremesh needs at least one renderer: VPR_EGL or VPR_OSMESA")
 endif()
 
+# The service (proto/, server/). Debian 12 ships no CMake config for gRPC, so
+# the libraries come from pkg-config and the code generators from PATH. The
+# service is skipped (with a message) where they are missing.
+pkg_check_modules(GRPCPP IMPORTED_TARGET grpc++)
+pkg_check_modules(PROTOBUF IMPORTED_TARGET protobuf)
+find_program(VPR_PROTOC protoc)
+find_program(VPR_GRPC_CPP_PLUGIN grpc_cpp_plugin)
+find_library(VPR_GRPCPP_REFLECTION grpc++_reflection)
+find_path(VPR_CIVETWEB_INCLUDE civetweb.h)
+find_library(VPR_CIVETWEB_LIBRARY civetweb)
+
 if(VPR_BUILD_TESTS)
   find_package(GTest REQUIRED)
 endif()

@@ -5,9 +5,6 @@
 //   vpremesh-bench [--threads N] [--repeat R] MODEL:TARGET ...
 #include <tbb/global_control.h>
 
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
-#include <OpenMesh/Tools/Decimater/DecimaterT.hh>
-#include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -15,43 +12,19 @@
 #include <vector>
 
 #include "io/mesh_io.h"
+#include "peers/peers.h"
 #include "pipeline/pipeline.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-using OmMesh = OpenMesh::TriMesh_ArrayKernelT<>;
-
 double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
-
-// OpenMesh needs a manifold; faces it refuses are counted and skipped.
-double openmesh_quadric_ms(const vpr::Mesh& in, uint32_t target, size_t* out_vertices) {
-  OmMesh mesh;
-  std::vector<OmMesh::VertexHandle> vh(in.vertex_count());
-  for (size_t v = 0; v < in.vertex_count(); ++v)
-    vh[v] = mesh.add_vertex(OmMesh::Point(in.positions[3 * v], in.positions[3 * v + 1], in.positions[3 * v + 2]));
-  size_t refused = 0;
-  for (size_t f = 0; f < in.face_count(); ++f)
-    refused += !mesh.add_face(vh[in.indices[3 * f]], vh[in.indices[3 * f + 1]], vh[in.indices[3 * f + 2]]).is_valid();
-  if (refused) std::fprintf(stderr, "OpenMesh refused %zu non-manifold faces\n", refused);
-  const auto start = Clock::now();
-  OpenMesh::Decimater::DecimaterT<OmMesh> decimater(mesh);
-  OpenMesh::Decimater::ModQuadricT<OmMesh>::Handle quadric;
-  decimater.add(quadric);
-  decimater.initialize();
-  decimater.decimate_to(target);
-  mesh.garbage_collection();
-  const double ms = ms_since(start);
-  *out_vertices = mesh.n_vertices();
-  return ms;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  omerr().disable();  // OpenMesh's per-face complaints would break the table; we count them instead
   int threads = 0, repeat = 1;
   std::vector<std::pair<std::string, uint32_t>> jobs;
   for (int i = 1; i < argc; ++i) {
@@ -108,8 +81,14 @@ int main(int argc, char** argv) {
         std::printf(" %.0f |", ms[s]);
         total += ms[s];
       }
-      size_t qem_vertices = 0;
-      const double qem = openmesh_quadric_ms(*mesh, target, &qem_vertices);
+      // The decimation alone, as before the peers library: conversion excluded.
+      auto peer = vpr::peers::openmesh_quadric(*mesh, target);
+      if (!peer.ok()) {
+        std::fprintf(stderr, "%s: %s\n", path.c_str(), peer.status().to_string().c_str());
+        return 1;
+      }
+      if (!peer->note.empty()) std::fprintf(stderr, "%s: OpenMesh QEM %s\n", path.c_str(), peer->note.c_str());
+      const double qem = peer->core_ms;
       std::printf(" %.0f | %.0f | %.0f | %.2f |\n", write_ms, total, qem, qem / total);
       std::fflush(stdout);
     }

@@ -233,10 +233,10 @@ StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& l
 }  // namespace io_detail
 
 StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* saliency, const DracoOptions& options) {
-  // Draco's quantizer takes 1..30 bits; speeds run 0..10.
-  if (options.position_bits < 1 || options.position_bits > 30)
+  // Draco's quantizer takes 1..30 bits (0: positions stay 32-bit floats); speeds run 0..10.
+  if (options.position_bits < 0 || options.position_bits > 30)
     return invalid_argument("DracoOptions.position_bits is " + std::to_string(options.position_bits) +
-                            ", it must be in 1..30");
+                            ", it must be in 0..30 (0 = lossless)");
   if (options.saliency_bits < 1 || options.saliency_bits > 30)
     return invalid_argument("DracoOptions.saliency_bits is " + std::to_string(options.saliency_bits) +
                             ", it must be in 1..30");
@@ -274,7 +274,7 @@ StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* salie
   }
 
   draco::ExpertEncoder encoder(dm);
-  encoder.SetAttributeQuantization(position_id, options.position_bits);
+  if (options.position_bits > 0) encoder.SetAttributeQuantization(position_id, options.position_bits);
   if (saliency_id >= 0) encoder.SetAttributeQuantization(saliency_id, options.saliency_bits);
   encoder.SetSpeedOptions(options.speed, options.speed);
   draco::EncoderBuffer out;

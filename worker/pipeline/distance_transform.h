@@ -14,3 +14,9 @@ namespace vpr::cpu {
 Status distance_transform(const Mask& seeds, FloatImage* dist, const ExecContext& ctx);
 
 }  // namespace vpr::cpu
+
+// GPU twin, built when VPR_HAVE_CUDA (distance_transform.cu): same contract
+// and bit-identical distances, on ctx's stream; returns once the map is on the host.
+namespace vpr::cuda {
+Status distance_transform(const Mask& seeds, FloatImage* dist, const ExecContext& ctx);
+}  // namespace vpr::cuda

@@ -43,4 +43,13 @@ Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& opt
                        const ExecContext& ctx);
 
 }  // namespace cpu
+
+// GPU twin, built when VPR_HAVE_CUDA (image_saliency.cu): same contract and
+// identical images, on ctx's stream; returns once they are on the host. The
+// pipeline's per-view path, which downloads only the points, is
+// view_saliency_points (gpu_saliency.h).
+namespace cuda {
+Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& options, FeatureImages* out,
+                       const ExecContext& ctx);
+}  // namespace cuda
 }  // namespace vpr

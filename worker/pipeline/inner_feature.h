@@ -22,4 +22,11 @@ Status inner_features(const GrayImage& filtered, const Mask& foreground, int n, 
                       const ExecContext& ctx);
 
 }  // namespace cpu
+
+// GPU twin, built when VPR_HAVE_CUDA (inner_feature.cu): same contract, on
+// ctx's stream; returns once the result is on the host.
+namespace cuda {
+Status inner_features(const GrayImage& filtered, const Mask& foreground, int n, float sigma, int c, Mask* features,
+                      const ExecContext& ctx);
+}  // namespace cuda
 }  // namespace vpr

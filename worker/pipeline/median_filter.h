@@ -18,3 +18,10 @@ Status median_filter(const GrayImage& in, int size, GrayImage* out, const ExecCo
 Status majority_filter(const Mask& in, int size, Mask* out, const ExecContext& ctx);
 
 }  // namespace vpr::cpu
+
+// GPU twins, built when VPR_HAVE_CUDA (median_filter.cu): same contracts, on
+// ctx's stream; they return once the result is on the host.
+namespace vpr::cuda {
+Status median_filter(const GrayImage& in, int size, GrayImage* out, const ExecContext& ctx);
+Status majority_filter(const Mask& in, int size, Mask* out, const ExecContext& ctx);
+}  // namespace vpr::cuda

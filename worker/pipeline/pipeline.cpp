@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "debug_output.h"
+#include "job_device.h"
 #include "unproject.h"
 
 namespace vpr {
@@ -18,6 +19,14 @@ double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+// A stage's twin for the context it is called with: the GPU twin (vpr::cuda,
+// same signature) on a CUDA context, the CPU twin otherwise.
+#ifdef VPR_HAVE_CUDA
+#define VPR_TWIN(ctx, fn) ((ctx).device == Device::kCuda ? &cuda::fn : &cpu::fn)
+#else
+#define VPR_TWIN(ctx, fn) (&cpu::fn)
+#endif
+
 // Runs one stage, records its wall time, and checks for cancellation first.
 class StageRunner {
  public:
@@ -25,16 +34,52 @@ class StageRunner {
 
   template <class Fn>
   Status run(const char* name, const std::string& device, Fn&& fn) {
-    if (options_.keep_going && !options_.keep_going())
-      return {StatusCode::kCancelled, std::string("job cancelled before stage ") + name};
+    VPR_RETURN_IF_ERROR(check_cancelled(name));
     const auto start = Clock::now();
     Status status = fn();
-    result_->stages.push_back({name, ms_since(start), device, ""});
+    record(name, start, device, "");
+    if (!status.ok()) return {status.code(), std::string(name) + ": " + status.message()};
+    return Status::Ok();
+  }
+
+  // A stage with a GPU twin: fn(ctx) runs on the job's device; when it fails
+  // on the GPU (out of memory, a CUDA error) it reruns on the CPU, the job goes
+  // on, and the stage's timing says "cpu" and why.
+  template <class Fn>
+  Status run_twin(const char* name, const JobDevice& device, Fn&& fn) {
+    VPR_RETURN_IF_ERROR(check_cancelled(name));
+    const auto start = Clock::now();
+    const ExecContext cpu_ctx;
+    if (!device.on_gpu()) {
+      Status status = fn(cpu_ctx);
+      record(name, start, "cpu", "");
+      if (!status.ok()) return {status.code(), std::string(name) + ": " + status.message()};
+      return Status::Ok();
+    }
+    Status status = fn(device.context());
+    if (status.ok()) status = device.synchronize();  // the timing includes the stream's work
+    if (status.ok()) {
+      record(name, start, "cuda", "");
+      return Status::Ok();
+    }
+    const std::string why = "GPU failed (" + status.to_string() + "), reran on the CPU";
+    status = fn(cpu_ctx);
+    record(name, start, "cpu", why);
     if (!status.ok()) return {status.code(), std::string(name) + ": " + status.message()};
     return Status::Ok();
   }
 
  private:
+  Status check_cancelled(const char* name) const {
+    if (options_.keep_going && !options_.keep_going())
+      return {StatusCode::kCancelled, std::string("job cancelled before stage ") + name};
+    return Status::Ok();
+  }
+  void record(const char* name, Clock::time_point start, const std::string& device, const std::string& note) {
+    result_->stages.push_back({name, ms_since(start), device, note});
+    if (options_.on_stage) options_.on_stage(result_->stages.back());
+  }
+
   const PipelineOptions& options_;
   PipelineResult* result_;
 };
@@ -121,9 +166,13 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
   VPR_ASSIGN_OR_RETURN(const Mesh input, normalized_copy(original, &norm));
 
   const auto job_start = Clock::now();
-  const ExecContext ctx;  // the GPU twins plug in here (issue: GPU stages)
-  const std::string cpu = device_name(ctx.device);
+  VPR_ASSIGN_OR_RETURN(const std::unique_ptr<JobDevice> device,
+                       JobDevice::select(options.device, options.cuda_device, options.device_budget));
+  const ExecContext ctx;  // stages without a GPU twin
+  const std::string cpu = "cpu";
   PipelineResult result;
+  result.device = device->description();
+  result.cpu_reason = device->cpu_reason();
   StageRunner stage(options, &result);
 
   // Stage 1: cameras and snapshots.
@@ -147,24 +196,27 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     result.renderer = renderer->description();
     Status status = renderer->render(input, views, &snapshots);
     result.stages.push_back({"render", ms_since(start), result.renderer, ""});
+    if (options.on_stage) options.on_stage(result.stages.back());
     if (!status.ok()) return Status(status.code(), "render: " + status.message());
   }
 
   // Stage 2: image-space saliency per view.
   std::vector<FeatureImages> features(views.size());
-  VPR_RETURN_IF_ERROR(stage.run("image_saliency", cpu, [&]() -> Status {
+  VPR_RETURN_IF_ERROR(stage.run_twin("image_saliency", *device, [&](const ExecContext& c) -> Status {
     for (size_t v = 0; v < views.size(); ++v)
-      VPR_RETURN_IF_ERROR(cpu::detect_features(snapshots[v], options.image, &features[v], ctx));
+      VPR_RETURN_IF_ERROR(VPR_TWIN(c, detect_features)(snapshots[v], options.image, &features[v], c));
     return Status::Ok();
   }));
 
   // Stage 3: feature pixels to 3D saliency points.
   std::vector<float> saliency_points;
   std::vector<std::vector<float>> view_points(views.size());
-  VPR_RETURN_IF_ERROR(stage.run("unproject", cpu, [&]() -> Status {
+  VPR_RETURN_IF_ERROR(stage.run_twin("unproject", *device, [&](const ExecContext& c) -> Status {
+    saliency_points.clear();
     for (size_t v = 0; v < views.size(); ++v) {
+      view_points[v].clear();
       VPR_RETURN_IF_ERROR(
-          cpu::unproject_features(features[v].features, snapshots[v].depth, views[v], &view_points[v], ctx));
+          VPR_TWIN(c, unproject_features)(features[v].features, snapshots[v].depth, views[v], &view_points[v], c));
       saliency_points.insert(saliency_points.end(), view_points[v].begin(), view_points[v].end());
     }
     return Status::Ok();
@@ -194,41 +246,45 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
   for (double a : areas) area += a;
   const double mean_edge = mean_edge_length(input);
   const double spacing_out = target_spacing(area, options.target_vertices);
-  VPR_RETURN_IF_ERROR(stage.run("saliency_field", cpu, [&]() -> Status {
+  VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {
     const float scale = resolve_depth_scale(options.field, spacing_out, mean_edge);
-    return cpu::saliency_field(input.positions.data(), input.vertex_count(), saliency_points.data(),
-                               saliency_points.size() / 3, options.field, scale, &result.input_importance, ctx);
+    return VPR_TWIN(c, saliency_field)(input.positions.data(), input.vertex_count(), saliency_points.data(),
+                                       saliency_points.size() / 3, options.field, scale, &result.input_importance, c);
   }));
 
   // Stage 5: adaptive sampling of the target count (Eq. 7-16).
   std::vector<float> particles, particle_importance;
-  VPR_RETURN_IF_ERROR(stage.run("sampling", cpu, [&]() -> Status {
+  VPR_RETURN_IF_ERROR(stage.run_twin("sampling", *device, [&](const ExecContext& c) -> Status {
     std::vector<double> quantity;
     std::vector<uint32_t> counts, offsets;
-    VPR_RETURN_IF_ERROR(cpu::visual_quantity(input, result.input_importance.data(), &quantity, ctx));
-    VPR_RETURN_IF_ERROR(
-        cpu::distribute_counts(quantity.data(), quantity.size(), options.target_vertices, &counts, &offsets, ctx));
-    return cpu::sample_triangles(input, result.input_importance.data(), counts.data(), offsets.data(), options.sampling,
-                                 &particles, &particle_importance, ctx);
+    VPR_RETURN_IF_ERROR(VPR_TWIN(c, visual_quantity)(input, result.input_importance.data(), &quantity, c));
+    VPR_RETURN_IF_ERROR(VPR_TWIN(c, distribute_counts)(quantity.data(), quantity.size(), options.target_vertices,
+                                                       &counts, &offsets, c));
+    return VPR_TWIN(c, sample_triangles)(input, result.input_importance.data(), counts.data(), offsets.data(),
+                                         options.sampling, &particles, &particle_importance, c);
   }));
 
   // Stage 6: AWLOP. Its input points are area-uniform samples of the input
   // surface rather than its vertices, so that CAD meshes with long thin
   // triangles (vertices only on creases) do not pull the particles to edges.
-  VPR_RETURN_IF_ERROR(stage.run("awlop", cpu, [&]() -> Status {
+  const std::vector<float> sampled_particles = particles;  // a CPU rerun after a GPU failure starts from these
+  VPR_RETURN_IF_ERROR(stage.run_twin("awlop", *device, [&](const ExecContext& c) -> Status {
+    particles = sampled_particles;
     const uint64_t count = uint64_t(options.target_vertices) * options.awlop.attraction_samples_per_target;
     std::vector<uint32_t> counts, offsets;
-    VPR_RETURN_IF_ERROR(cpu::distribute_counts(areas.data(), areas.size(), uint32_t(count), &counts, &offsets, ctx));
+    VPR_RETURN_IF_ERROR(
+        VPR_TWIN(c, distribute_counts)(areas.data(), areas.size(), uint32_t(count), &counts, &offsets, c));
     std::vector<float> ones(input.vertex_count(), 1.0f), surface_points, unused;
     SamplingOptions uniform = options.sampling;
     uniform.seed = options.sampling.seed ^ 0x5EEDA77AC7ull;  // independent of the particles' stream
     uniform.adaptive_min_samples = UINT32_MAX;
-    VPR_RETURN_IF_ERROR(cpu::sample_triangles(input, ones.data(), counts.data(), offsets.data(), uniform,
-                                              &surface_points, &unused, ctx));
+    VPR_RETURN_IF_ERROR(VPR_TWIN(c, sample_triangles)(input, ones.data(), counts.data(), offsets.data(), uniform,
+                                                      &surface_points, &unused, c));
     VPR_ASSIGN_OR_RETURN(const double h, awlop_support_radius(options.awlop.support, options.awlop.h_factor, mean_edge,
                                                               area, options.target_vertices));
-    return cpu::awlop(surface_points.data(), surface_points.size() / 3, particles.data(), particle_importance.data(),
-                      particle_importance.size(), h, options.awlop, &result.awlop, ctx);
+    return VPR_TWIN(c, awlop)(surface_points.data(), surface_points.size() / 3, particles.data(),
+                              particle_importance.data(), particle_importance.size(), h, options.awlop, &result.awlop,
+                              c);
   }));
 
   // Stage 7: mesh the optimized points; each output vertex keeps its

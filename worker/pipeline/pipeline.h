@@ -12,6 +12,7 @@
 #include "adaptive_sampling.h"
 #include "awlop.h"
 #include "exec_context.h"
+#include "job_device.h"
 #include "image_saliency.h"
 #include "mesh.h"
 #include "meshing.h"
@@ -26,6 +27,13 @@ namespace vpr {
 // the mesh can hold; the maximum bounds one job's memory (about 1 KiB a vertex).
 inline constexpr uint32_t kMinTargetVertices = 100;
 inline constexpr uint32_t kMaxTargetVertices = 2'000'000;
+
+struct StageTiming {
+  std::string name;    // "render", "image_saliency", ...
+  double ms = 0;       // wall time
+  std::string device;  // "cpu", "cuda", "egl: ...", "osmesa: ..."
+  std::string note;    // e.g. why a stage fell back to the CPU
+};
 
 // Where the parallel stages run. kAuto: a CUDA GPU when the build has the twins
 // and a device answers, else the CPU. kCuda: the GPU is required
@@ -51,13 +59,9 @@ struct PipelineOptions {
   std::string debug_dir;  // when set: per-view PNGs and saliency points as PLY
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
-};
-
-struct StageTiming {
-  std::string name;    // "render", "image_saliency", ...
-  double ms = 0;       // wall time
-  std::string device;  // "cpu", "cuda", "egl: ...", "osmesa: ..."
-  std::string note;    // e.g. why a stage fell back to the CPU
+  // Called as each stage ends (from the pipeline's thread), e.g. to stream
+  // progress; the StageTiming is final.
+  std::function<void(const StageTiming&)> on_stage;
 };
 
 struct PipelineResult {
@@ -68,6 +72,8 @@ struct PipelineResult {
   std::vector<StageTiming> stages;
   double total_ms = 0;
   std::string renderer;  // renderer description
+  std::string device;    // where the twins ran: "cpu" or "cuda:0 NVIDIA H100 ..."
+  std::string cpu_reason;  // why the CPU under DevicePolicy::kAuto ("built without CUDA", no device, ...)
   AwlopStats awlop;
   MeshingStats meshing;
 };

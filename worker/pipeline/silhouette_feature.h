@@ -32,3 +32,13 @@ Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask&
                      const FloatImage& silhouette_distance, float threshold_px, Mask* thin, const ExecContext& ctx);
 
 }  // namespace vpr::cpu
+
+// GPU twins, built when VPR_HAVE_CUDA (silhouette_feature.cu): same contracts,
+// on ctx's stream; they return once the result is on the host.
+namespace vpr::cuda {
+Status silhouette_pixels(const Mask& foreground, Mask* silhouette, const ExecContext& ctx);
+Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, int lambda, Mask* skeleton,
+                const ExecContext& ctx);
+Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask& skeleton,
+                     const FloatImage& silhouette_distance, float threshold_px, Mask* thin, const ExecContext& ctx);
+}  // namespace vpr::cuda

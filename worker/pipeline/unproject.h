@@ -18,3 +18,10 @@ Status unproject_features(const Mask& features, const FloatImage& depth, const V
                           const ExecContext& ctx);
 
 }  // namespace vpr::cpu
+
+// GPU twin, built when VPR_HAVE_CUDA (unproject.cu): same contract and order,
+// on ctx's stream; returns once the points are on the host.
+namespace vpr::cuda {
+Status unproject_features(const Mask& features, const FloatImage& depth, const View& view, std::vector<float>* points,
+                          const ExecContext& ctx);
+}  // namespace vpr::cuda

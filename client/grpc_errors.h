@@ -1,0 +1,28 @@
+// Failed service calls and failed jobs as one clear line on stderr and an exit
+// code from exit_codes.h:
+//   vpremesh: RESOURCE_EXHAUSTED: upload of 700 MiB exceeds the server's limit of 512 MiB
+#pragma once
+
+#include <grpcpp/support/status.h>
+
+#include <string>
+
+#include "vpremesh/v1/remesh.pb.h"
+
+namespace vpr::cli {
+
+// "RESOURCE_EXHAUSTED", "UNAVAILABLE", ...; "CODE_<n>" for a value outside the enum.
+std::string grpc_code_name(grpc::StatusCode code);
+
+// The line printed for a failed call to `server` (without "vpremesh: "). A
+// transport failure (nothing listening, name not resolved) says which address
+// could not be reached.
+std::string describe_call_error(const grpc::Status& status, const std::string& server);
+
+// Prints "vpremesh: CODE: message" and returns the exit code for the status.
+int report_call_error(const grpc::Status& status, const std::string& server);
+
+// The same for a job that ended in `failed` or `cancelled`.
+int report_job_failure(const vpremesh::v1::Failure& failure, bool cancelled);
+
+}  // namespace vpr::cli

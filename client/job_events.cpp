@@ -1,0 +1,229 @@
+#include "job_events.h"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "exit_codes.h"
+#include "grpc_errors.h"
+#include "io/mesh_io.h"
+#include "stage_table.h"
+
+namespace vpr::cli {
+
+namespace v1 = vpremesh::v1;
+
+namespace {
+
+// Chunks arrive in order: each starts where the previous ended.
+template <class Vec, class Chunk>
+Status append_chunk(const char* what, const Chunk& chunk, const std::string& payload, Vec* into, uint64_t* total) {
+  if (chunk.offset() != into->size())
+    return internal_error(std::string(what) + " chunk at offset " + std::to_string(chunk.offset()) + ", expected " +
+                          std::to_string(into->size()));
+  if (chunk.total() < chunk.offset() + payload.size() || (*total != 0 && chunk.total() != *total))
+    return internal_error(std::string(what) + " chunk passes its total of " + std::to_string(chunk.total()));
+  *total = chunk.total();
+  into->insert(into->end(), payload.begin(), payload.end());
+  return {};
+}
+
+Status append_floats(const char* what, const v1::FloatChunk& chunk, std::vector<float>* into, uint64_t* total) {
+  if (chunk.offset() != into->size())
+    return internal_error(std::string(what) + " chunk at offset " + std::to_string(chunk.offset()) + ", expected " +
+                          std::to_string(into->size()));
+  if (chunk.total() < chunk.offset() + uint64_t(chunk.values_size()) || (*total != 0 && chunk.total() != *total))
+    return internal_error(std::string(what) + " chunk passes its total of " + std::to_string(chunk.total()));
+  *total = chunk.total();
+  into->insert(into->end(), chunk.values().begin(), chunk.values().end());
+  return {};
+}
+
+int fail(const Status& s) {
+  std::fprintf(stderr, "vpremesh: error: %s\n", s.to_string().c_str());
+  return exit_code_for(s);
+}
+
+Status write_bytes(const std::string& path, const void* data, size_t size) {
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  if (!f) return not_found(path + ": cannot open for writing");
+  f.write(static_cast<const char*>(data), std::streamsize(size));
+  if (!f) return internal_error(path + ": write failed");
+  return {};
+}
+
+double ms_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+}
+
+}  // namespace
+
+Status JobOutcome::add(const v1::JobEvent& e) {
+  if (job_id.empty()) job_id = e.job_id();
+  switch (e.event_case()) {
+    case v1::JobEvent::kQueued:
+      break;
+    case v1::JobEvent::kStarted:
+      worker = e.started().worker();
+      device = e.started().device();
+      queue_ms = e.started().queue_ms();
+      break;
+    case v1::JobEvent::kStage:
+      stages.push_back({e.stage().name(), e.stage().ms(), e.stage().device(), e.stage().note()});
+      break;
+    case v1::JobEvent::kResult:
+      return append_chunk("result", e.result(), e.result().data(), &result, &result_total);
+    case v1::JobEvent::kSaliency:
+      return append_floats("saliency", e.saliency(), &saliency, &saliency_total);
+    case v1::JobEvent::kSaliencyPoints:
+      break;  // not written by the CLI
+    case v1::JobEvent::kDebugImage:
+      debug_images.emplace_back(e.debug_image().name(), e.debug_image().png());
+      break;
+    case v1::JobEvent::kCompleted:
+      end = End::kCompleted;
+      summary = e.completed();
+      if (queue_ms < 0) queue_ms = summary.queue_ms();
+      break;
+    case v1::JobEvent::kFailed:
+      end = End::kFailed;
+      failure = e.failed();
+      break;
+    case v1::JobEvent::kCancelled:
+      end = End::kCancelled;
+      failure = e.cancelled();
+      break;
+    case v1::JobEvent::EVENT_NOT_SET:
+      break;  // a newer server's event: ignore it
+  }
+  return {};
+}
+
+Status follow_events(const std::function<bool(v1::JobEvent*)>& read, ProgressLine& progress, JobOutcome* outcome) {
+  v1::JobEvent event;
+  int stages = 0;
+  Status problem;
+  while (read(&event)) {
+    if (!problem.ok()) continue;  // drain the stream so that Finish() can report its status
+    if (event.event_case() == v1::JobEvent::kStage) ++stages;
+    // A line per result chunk would flood a log; on a terminal it is a counter.
+    if (event.event_case() != v1::JobEvent::kResult || progress.terminal())
+      progress.update(ProgressLine::describe(event, stages));
+    problem = outcome->add(event);
+  }
+  progress.finish();
+  return problem;
+}
+
+int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& server) {
+  switch (o.end) {
+    case JobOutcome::End::kFailed:
+      return report_job_failure(o.failure, false);
+    case JobOutcome::End::kCancelled:
+      return report_job_failure(o.failure, true);
+    case JobOutcome::End::kNone:
+      std::fprintf(stderr, "vpremesh: INTERNAL: the event stream from %s ended before the job did\n", server.c_str());
+      return kExitInternal;
+    case JobOutcome::End::kCompleted:
+      break;
+  }
+
+  const auto start = std::chrono::steady_clock::now();
+  const bool need_mesh = !out.output.empty() || !out.field_out.empty();
+  if (need_mesh && (o.result.empty() || o.result.size() != o.result_total))
+    return fail(internal_error("the server sent " + std::to_string(o.result.size()) + " of " +
+                               std::to_string(o.result_total) + " bytes of the result mesh"));
+  Mesh mesh;
+  bool decoded = false;
+  auto decode = [&]() -> Status {
+    if (decoded) return {};
+    auto m = parse_mesh(o.result.data(), o.result.size(), MeshFormat::kDraco);
+    if (!m.ok()) return Status(m.status().code(), "the result from " + server + ": " + m.status().message());
+    mesh = std::move(*m);
+    decoded = true;
+    return {};
+  };
+  auto saliency_for = [&](const Mesh& m) -> const float* {
+    return o.saliency.size() == m.vertex_count() && !o.saliency.empty() ? o.saliency.data() : nullptr;
+  };
+
+  if (!out.output.empty()) {
+    auto format = format_from_path(out.output);
+    if (!format.ok()) return fail(format.status());
+    if (*format == MeshFormat::kDraco) {
+      // The server's file as it is: its quantization, its saliency attribute.
+      if (Status s = write_bytes(out.output, o.result.data(), o.result.size()); !s.ok()) return fail(s);
+    } else {
+      if (Status s = decode(); !s.ok()) return fail(s);
+      if (Status s = write_mesh(out.output, mesh, saliency_for(mesh)); !s.ok()) return fail(s);
+    }
+  }
+  if (!out.field_out.empty()) {
+    if (Status s = decode(); !s.ok()) return fail(s);
+    if (!saliency_for(mesh))
+      return fail(internal_error("the server sent " + std::to_string(o.saliency.size()) +
+                                 " saliency values for a result of " + std::to_string(mesh.vertex_count()) +
+                                 " vertices"));
+    if (Status s = write_mesh(out.field_out, mesh, saliency_for(mesh)); !s.ok()) return fail(s);
+  }
+  if (!out.debug_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(out.debug_dir, ec);
+    if (ec) return fail(not_found(out.debug_dir + ": " + ec.message()));
+    for (const auto& [name, png] : o.debug_images) {
+      // Names come from the server: keep them inside the folder.
+      const std::string file = std::filesystem::path(name).filename().string();
+      if (file.empty() || file == "." || file == "..") continue;
+      if (Status s = write_bytes(out.debug_dir + "/" + file, png.data(), png.size()); !s.ok()) return fail(s);
+    }
+  }
+
+  PipelineResult result;
+  result.stages = o.stages;
+  result.renderer = o.summary.renderer();
+  result.saliency_points = o.summary.saliency_points();
+  RunSummary summary;
+  summary.input_vertices = o.summary.input_vertices();
+  summary.input_faces = o.summary.input_faces();
+  summary.output_vertices = o.summary.output_vertices();
+  summary.output_faces = o.summary.output_faces();
+  summary.target_vertices = out.target_vertices;
+  summary.read_ms = out.read_ms > 0 ? out.read_ms : 0;
+  summary.upload_ms = out.upload_ms;
+  summary.queue_ms = o.queue_ms;
+  summary.write_ms = ms_since(start);
+  if (out.json) {
+    nlohmann::json j = report_json(result, summary);
+    j["job_id"] = o.job_id;
+    j["server"] = server;
+    j["worker"] = o.worker;
+    j["device"] = o.device;
+    j["queue_ms"] = o.summary.queue_ms();
+    j["run_ms"] = o.summary.run_ms();
+    j["server_total_ms"] = o.summary.total_ms();
+    j["result_bytes"] = o.summary.result_bytes();
+    std::printf("%s\n", j.dump(2).c_str());
+  } else {
+    std::printf("job %s on %s (%s)\n", o.job_id.c_str(), o.worker.c_str(), o.device.c_str());
+    std::printf("%s", format_stage_table(result, summary).c_str());
+  }
+  return kExitOk;
+}
+
+std::shared_ptr<grpc::Channel> make_channel(const std::string& server) {
+  grpc::ChannelArguments args;
+  // Chunks are at most 1 MiB of payload; leave room for the envelope.
+  args.SetMaxReceiveMessageSize(8 << 20);
+  args.SetMaxSendMessageSize(8 << 20);
+  return grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args);
+}
+
+void set_deadline(grpc::ClientContext& context, double seconds) {
+  if (seconds <= 0) return;
+  context.set_deadline(std::chrono::system_clock::now() +
+                       std::chrono::microseconds(int64_t(seconds * 1e6)));
+}
+
+}  // namespace vpr::cli

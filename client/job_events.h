@@ -1,0 +1,69 @@
+// Following a job's event stream (from Remesh or Watch) and turning its end
+// into files, the stage table and an exit code; shared by `vpremesh submit`
+// and `vpremesh watch`.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "pipeline/pipeline.h"
+#include "progress.h"
+#include "vpremesh/v1/remesh.pb.h"
+
+namespace vpr::cli {
+
+// Everything a job's events carry, put together.
+struct JobOutcome {
+  std::string job_id;
+  std::vector<StageTiming> stages;  // in the order the server ran them
+  std::string worker, device;       // from `started`
+  double queue_ms = -1;             // from `started` (or `completed`); -1 until known
+  std::vector<uint8_t> result;      // the output Draco file
+  uint64_t result_total = 0;
+  std::vector<float> saliency;  // one value per output vertex
+  uint64_t saliency_total = 0;
+  std::vector<std::pair<std::string, std::string>> debug_images;  // name, PNG bytes
+  enum class End { kNone, kCompleted, kFailed, kCancelled } end = End::kNone;
+  vpremesh::v1::Completed summary;  // when completed
+  vpremesh::v1::Failure failure;    // when failed or cancelled
+
+  // Adds one event. A chunk out of order or past its total is INTERNAL (the
+  // server broke the protocol).
+  Status add(const vpremesh::v1::JobEvent& event);
+};
+
+// Reads events with `read` (ClientReader::Read or ClientReaderWriter::Read)
+// until the stream ends, showing each on `progress`. Returns the problem when
+// an event is malformed; the stream's own status comes from its Finish().
+Status follow_events(const std::function<bool(vpremesh::v1::JobEvent*)>& read, ProgressLine& progress,
+                     JobOutcome* outcome);
+
+// Where a finished job's payloads go; empty paths are skipped.
+struct JobOutputs {
+  std::string output;     // .drc (the server's bytes as they are), .ply or .obj
+  std::string field_out;  // the result colored by its saliency field
+  std::string debug_dir;  // per-view PNGs
+  bool json = false;
+  uint32_t target_vertices = 0;  // for the table's deviation column (0: unknown)
+  double read_ms = -1;           // client side: reading and encoding the input
+  double upload_ms = -1;         // client side: sending it
+};
+
+// Writes the outputs of a completed job and prints the stage table (or JSON)
+// on stdout; for a failed or cancelled job prints one line on stderr. Returns
+// the exit code.
+int finish_job(const JobOutcome& outcome, const JobOutputs& outputs, const std::string& server);
+
+// A channel to `server` (host:port, insecure: the service runs inside a
+// trusted network) whose messages may be as large as our chunks need.
+std::shared_ptr<grpc::Channel> make_channel(const std::string& server);
+
+// Sets the call's deadline `seconds` from now (0 or less: none).
+void set_deadline(grpc::ClientContext& context, double seconds);
+
+}  // namespace vpr::cli

@@ -1,0 +1,250 @@
+// `vpremesh submit INPUT -o OUTPUT --server ADDR --target-vertices N ...`: the
+// same job as `vpremesh local`, run by a vpremesh-server. The input is
+// converted to Draco (the wire format), uploaded in chunks of at most 1 MiB
+// (RemeshRequest: the spec first, then mesh_chunk), and followed to its end on
+// the same stream; `--no-wait` only queues it (Submit) and prints the job id.
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "exit_codes.h"
+#include "grpc_errors.h"
+#include "io/mesh_io.h"
+#include "job_events.h"
+#include "server/job_spec.h"
+#include "vpremesh/v1/remesh.grpc.pb.h"
+
+namespace vpr::cli {
+
+namespace v1 = vpremesh::v1;
+
+namespace {
+
+// The API's chunk limit (remesh.proto: "at most 1 MiB each").
+constexpr size_t kChunkBytes = size_t(1) << 20;
+
+struct SubmitArgs {
+  std::string input, output, field_out, debug_dir, server, label, device = "any", awlop_support = "target";
+  bool json = false, no_wait = false, no_pca = false;
+  std::vector<double> rotation;
+  int quantization_bits = 0;  // upload: 0 = lossless
+  int result_quantization_bits = 0;  // 0 = the server's default
+  int priority = 0;
+  double deadline_s = 0;
+  PipelineOptions options;
+};
+
+double ms_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+}
+
+int fail(const Status& s) {
+  std::fprintf(stderr, "vpremesh: error: %s\n", s.to_string().c_str());
+  return exit_code_for(s);
+}
+
+StatusOr<std::vector<uint8_t>> read_bytes(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return not_found(path + ": no such file");
+  std::ifstream f(path, std::ios::binary);
+  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  if (f.bad()) return not_found(path + ": cannot read");
+  return bytes;
+}
+
+// The upload: a .drc file as it is (the server validates it), any other
+// format parsed here and encoded with sequential connectivity (speed 10),
+// which keeps every vertex and face in its order, so the server runs on
+// exactly what `vpremesh local` would (with lossless positions).
+StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits, size_t* vertices) {
+  VPR_ASSIGN_OR_RETURN(const MeshFormat format, format_from_path(path));
+  if (format == MeshFormat::kDraco) return read_bytes(path);
+  VPR_ASSIGN_OR_RETURN(const Mesh mesh, read_mesh(path));
+  *vertices = mesh.vertex_count();
+  DracoOptions draco;
+  draco.position_bits = quantization_bits;
+  draco.speed = 10;
+  auto bytes = encode_draco(mesh, nullptr, draco);
+  if (!bytes.ok()) return Status(bytes.status().code(), path + ": " + bytes.status().message());
+  return bytes;
+}
+
+StatusOr<v1::JobSpec> build_spec(SubmitArgs& a, uint64_t upload_bytes) {
+  PipelineOptions& o = a.options;
+  if (a.awlop_support == "paper") o.awlop.support = AwlopSupport::kPaper;
+  o.views.pca_align = !a.no_pca;
+  if (!a.rotation.empty()) {
+    if (a.rotation.size() != 9) return invalid_argument("--rotation needs 9 numbers (row-major 3x3)");
+    std::array<double, 9> r{};
+    for (int i = 0; i < 9; ++i) r[i] = a.rotation[i];
+    o.views.user_rotation = r;
+  }
+  VPR_RETURN_IF_ERROR(validate_options(o));
+  VPR_ASSIGN_OR_RETURN(v1::JobSpec spec, service::make_job_spec(o));
+  spec.set_mesh_size_bytes(upload_bytes);
+  spec.set_label(a.label.empty() ? std::filesystem::path(a.input).filename().string() : a.label);
+  spec.set_priority(a.priority);
+  spec.set_return_mesh(true);  // also for --no-wait: `vpremesh watch` may want it later
+  spec.set_return_saliency(true);
+  spec.set_return_debug_images(!a.debug_dir.empty());
+  spec.set_result_quantization_bits(uint32_t(a.result_quantization_bits));
+  spec.set_device(a.device == "cpu" ? v1::DEVICE_CPU : a.device == "cuda" ? v1::DEVICE_CUDA : v1::DEVICE_ANY);
+  return spec;
+}
+
+// Writes the spec and then the file in chunks. False when the server closed
+// the stream early (a refusal): its status then comes from Finish().
+template <class Writer>
+bool upload(Writer& writer, const v1::JobSpec& spec, const std::vector<uint8_t>& bytes) {
+  v1::RemeshRequest request;
+  *request.mutable_spec() = spec;
+  if (!writer.Write(request)) return false;
+  for (size_t offset = 0; offset < bytes.size(); offset += kChunkBytes) {
+    const size_t n = std::min(kChunkBytes, bytes.size() - offset);
+    request.set_mesh_chunk(bytes.data() + offset, n);
+    if (!writer.Write(request)) return false;
+  }
+  return writer.WritesDone();
+}
+
+int run_submit(SubmitArgs& a) {
+  if (!a.no_wait && a.output.empty()) {
+    std::fprintf(stderr, "vpremesh: submit: -o OUTPUT is required (unless --no-wait)\n");
+    return kExitUsage;
+  }
+  // Check the output formats before the upload.
+  for (const std::string* path : {&a.output, &a.field_out})
+    if (!path->empty())
+      if (auto f = format_from_path(*path); !f.ok()) return fail(f.status());
+  if (a.quantization_bits < 0 || a.quantization_bits > 30)
+    return fail(invalid_argument("--quantization-bits is " + std::to_string(a.quantization_bits) +
+                                 ", it must be in 0..30 (0 = lossless)"));
+
+  JobOutputs outputs;
+  outputs.output = a.output;
+  outputs.field_out = a.field_out;
+  outputs.debug_dir = a.debug_dir;
+  outputs.json = a.json;
+  outputs.target_vertices = a.options.target_vertices;
+
+  auto start = std::chrono::steady_clock::now();
+  size_t input_vertices = 0;
+  auto bytes = draco_upload(a.input, a.quantization_bits, &input_vertices);
+  if (!bytes.ok()) return fail(bytes.status());
+  auto spec = build_spec(a, bytes->size());
+  if (!spec.ok()) return fail(spec.status());
+  outputs.read_ms = ms_since(start);
+
+  auto stub = v1::RemeshService::NewStub(make_channel(a.server));
+  grpc::ClientContext context;
+  set_deadline(context, a.deadline_s);
+
+  if (a.no_wait) {
+    v1::JobRef ref;
+    auto writer = stub->Submit(&context, &ref);
+    upload(*writer, *spec, *bytes);
+    const grpc::Status status = writer->Finish();
+    if (!status.ok()) return report_call_error(status, a.server);
+    if (a.json)
+      std::printf("%s\n", nlohmann::json{{"job_id", ref.job_id()}, {"server", a.server}}.dump(2).c_str());
+    else
+      std::printf("%s\n", ref.job_id().c_str());
+    return kExitOk;
+  }
+
+  start = std::chrono::steady_clock::now();
+  auto stream = stub->Remesh(&context);
+  const bool sent = upload(*stream, *spec, *bytes);
+  if (sent) outputs.upload_ms = ms_since(start);
+  ProgressLine progress(stderr, !a.json);
+  JobOutcome outcome;
+  const Status problem =
+      follow_events([&stream](v1::JobEvent* e) { return stream->Read(e); }, progress, &outcome);
+  const grpc::Status status = stream->Finish();
+  // A job that failed says so in its last event; the call's status may carry
+  // the same code. A failed call without such an event is the call's error.
+  if (!status.ok() && outcome.end == JobOutcome::End::kNone) return report_call_error(status, a.server);
+  if (!problem.ok()) return fail(problem);
+  return finish_job(outcome, outputs, a.server);
+}
+
+}  // namespace
+
+// The pipeline flags of `vpremesh local`, the same names and defaults.
+void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, std::string& awlop_support, bool& no_pca,
+                        std::vector<double>& rotation) {
+  cmd->add_option("-n,--target-vertices", o.target_vertices, "Output vertex count (within 2%)")->required();
+  cmd->add_option("--views", o.views.count, "Number of views: 6 (axes) or 14 (axes + diagonals)")
+      ->check(CLI::IsMember({6, 14}))
+      ->capture_default_str();
+  cmd->add_option("--resolution", o.views.resolution, "Snapshot resolution in pixels")->capture_default_str();
+  cmd->add_option("--seed", o.sampling.seed, "Random seed of the sampler")->capture_default_str();
+  cmd->add_flag("--no-pca", no_pca, "Use the model's own axes instead of its principal axes");
+  cmd->add_option("--rotation", rotation, "User rotation, 9 numbers (row-major 3x3)")->expected(9);
+  cmd->add_option("--median-size", o.image.median_size, "Median pre-filter window")->capture_default_str();
+  cmd->add_option("--gaussian-size", o.image.gaussian_size, "Eq. (1) Gaussian window n")->capture_default_str();
+  cmd->add_option("--gaussian-sigma", o.image.gaussian_sigma, "Eq. (1) Gaussian sigma")->capture_default_str();
+  cmd->add_option("--threshold-c", o.image.threshold_c, "Eq. (3) threshold C")->capture_default_str();
+  cmd->add_option("--skeleton-lambda", o.image.skeleton_lambda, "Eq. (5) lambda")->capture_default_str();
+  cmd->add_option("--thin-feature-px", o.image.thin_feature_px, "Thin feature size at 512 px")->capture_default_str();
+  cmd->add_option("--knn", o.field.k, "Algorithm 1: k of the k-NN graph")->capture_default_str();
+  cmd->add_option("--beta", o.field.beta, "Algorithm 1: I = beta^depth")->capture_default_str();
+  cmd->add_option("--min-importance", o.field.min_importance, "Floor of the importance")->capture_default_str();
+  cmd->add_option("--depth-scale", o.field.depth_scale, "Field depth per output spacing (0 = automatic)")
+      ->capture_default_str();
+  cmd->add_option("--mu", o.awlop.mu, "Eq. (17) repulsion strength")->capture_default_str();
+  cmd->add_option("--awlop-samples", o.awlop.attraction_samples_per_target,
+                  "Surface samples AWLOP attracts to, per target vertex")
+      ->capture_default_str();
+  cmd->add_option("--awlop-k", o.awlop.k, "AWLOP neighbours")->capture_default_str();
+  cmd->add_option("--awlop-iterations", o.awlop.iterations, "AWLOP iterations")->capture_default_str();
+  cmd->add_option("--awlop-support", awlop_support, "h from 'target' spacing or 'paper' (input edges)")
+      ->check(CLI::IsMember({"target", "paper"}))
+      ->capture_default_str();
+}
+
+void add_server_flags(CLI::App* cmd, std::string& server, double& deadline_s) {
+  cmd->add_option("--server", server, "Server address host:port (or $VPREMESH_SERVER)")
+      ->envname("VPREMESH_SERVER")
+      ->required();
+  cmd->add_option("--deadline", deadline_s, "Give up after this many seconds (0 = never)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+}
+
+Command add_submit_command(CLI::App& app) {
+  auto args = std::make_shared<SubmitArgs>();
+  CLI::App* cmd = app.add_subcommand("submit", "Remesh a file on a vpremesh-server");
+  cmd->add_option("input", args->input, "Input mesh (.drc .obj .ply .off .stl)")->required();
+  cmd->add_option("-o,--output", args->output, "Output mesh (.drc .ply .obj)");
+  add_server_flags(cmd, args->server, args->deadline_s);
+  add_pipeline_flags(cmd, args->options, args->awlop_support, args->no_pca, args->rotation);
+  cmd->add_option("--field-out", args->field_out, "Write the result colored by its saliency field (.ply .drc .obj)");
+  cmd->add_option("--debug-dir", args->debug_dir, "Write the server's per-view images here");
+  cmd->add_flag("--json", args->json, "Print a JSON report instead of the table (no progress lines)");
+  cmd->add_flag("--no-wait", args->no_wait, "Only queue the job and print its id (follow it with watch)");
+  cmd->add_option("--quantization-bits", args->quantization_bits,
+                  "Draco position bits of the upload, 1..30 (0 = lossless)")
+      ->capture_default_str();
+  cmd->add_option("--result-quantization-bits", args->result_quantization_bits,
+                  "Draco position bits of the result (0 = the server's default)")
+      ->check(CLI::Range(0, 30))
+      ->capture_default_str();
+  cmd->add_option("--priority", args->priority, "Higher runs first, -10..10")
+      ->check(CLI::Range(-10, 10))
+      ->capture_default_str();
+  cmd->add_option("--label", args->label, "A name for the server's logs (default: the input's file name)");
+  cmd->add_option("--device", args->device, "any, cpu or cuda")
+      ->check(CLI::IsMember({"any", "cpu", "cuda"}))
+      ->capture_default_str();
+  return [args]() { return run_submit(*args); };
+}
+
+}  // namespace vpr::cli

@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Builds the GPU bundle on this (GPU-less) machine for the device machine:
+# nvcc for sm_90, EGL only (OSMesa's LLVM is too big to carry), Release. Writes
+# .bundle/ (ignored by git, carried by the device tool):
+#   bin/     vpremesh, vpremesh-bench, vpremesh-server (stripped)
+#   lib/     the non-system shared libraries they need (from ldd)
+#   build/   a pruned copy of the build tree that `ctest -L gpu` can run
+#   models/  the shared models the GPU tests and the benchmark read
+# Then scripts/device-run.sh runs on the device. Usage: scripts/device-bundle.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=build/device
+MODELS=${MODELS:-"igea.ply horse.ply bunny.obj kitten.obj fandisk.obj nefertiti.obj"}
+
+cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DVPR_CUDA=ON -DVPR_OSMESA=OFF \
+  -DCMAKE_CUDA_ARCHITECTURES=90 >/dev/null
+targets=(vpremesh vpremesh-bench)
+for t in vpremesh-server image_saliency_gpu_test geometry_gpu_test pipeline_gpu_test job_device_test; do
+  if ninja -C "$BUILD" -t targets all 2>/dev/null | grep -q "^$t:"; then targets+=("$t"); fi
+done
+cmake --build "$BUILD" -j"$(nproc)" --target "${targets[@]}"
+
+rm -rf .bundle && mkdir -p .bundle/bin .bundle/lib .bundle/build .bundle/models
+bins=()
+for t in vpremesh vpremesh-bench vpremesh-server; do
+  f=$(find "$BUILD" -maxdepth 3 -type f -name "$t" -perm -u+x | head -1)
+  [ -n "$f" ] && cp "$f" .bundle/bin/ && bins+=(".bundle/bin/$t")
+done
+# The ctest tree: every CTestTestfile and discovered-test list, and the test
+# executables at their paths relative to the build folder.
+(cd "$BUILD" && find . \( -name CTestTestfile.cmake -o -name '*_include.cmake' -o -name '*_tests.cmake' \) \
+  -exec cp --parents {} ../../.bundle/build/ \;)
+for t in "${targets[@]}"; do
+  case "$t" in *_test)
+    f=$(find "$BUILD/tests" -maxdepth 2 -type f -name "$t" | head -1)
+    [ -n "$f" ] && cp --parents "${f#"$BUILD"/}" .bundle/build/ 2>/dev/null ||
+      (cd "$BUILD" && cp --parents "${f#"$BUILD"/}" ../../.bundle/build/) && bins+=(".bundle/build/${f#"$BUILD"/}") ;;
+  esac
+done
+strip --strip-unneeded "${bins[@]}"
+
+# Libraries the device image lacks: everything ldd finds except the C/C++
+# runtime, the CUDA driver and the GL loaders (the .gl/ debs bring those).
+skip='^(linux-vdso|ld-linux|libc\.|libm\.|libstdc\+\+|libgcc_s|libpthread|libdl\.|librt\.|libcuda\.|libEGL|libGL|libOpenGL|libGLX|libGLdispatch)'
+for b in "${bins[@]}"; do ldd "$b"; done | awk '/=> \//{print $1, $3}' | sort -u |
+  while read -r name path; do
+    [[ "$name" =~ $skip ]] || cp -L "$path" .bundle/lib/
+  done
+for m in $MODELS; do cp "../shared/models/$m" .bundle/models/; done
+du -sh .bundle .bundle/* | sed 's/^/device-bundle: /'

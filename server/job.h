@@ -1,0 +1,59 @@
+// A job as it travels between the RPCs, the queue and the workers. Only the
+// spec and the uploaded bytes: what a queue on another host (Redis Streams)
+// can store as it is.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vpremesh/v1/remesh.pb.h"
+
+namespace vpr::service {
+
+using Clock = std::chrono::steady_clock;
+
+// What Remesh and Submit hand to JobQueue::submit, after validating the spec.
+struct JobSubmission {
+  v1::JobSpec spec;
+  std::vector<uint8_t> mesh;  // the Draco file, whole
+  std::string peer;           // the client connection (grpc::ServerContext::peer()), for the per-client limit
+};
+
+// What JobQueue::claim hands to a worker. The queue gives up the mesh bytes
+// with it, so a job's upload lives in exactly one place.
+struct ClaimedJob {
+  std::string id;
+  v1::JobSpec spec;
+  std::vector<uint8_t> mesh;
+  double queue_ms = 0;  // submission to claim
+};
+
+// Jobs by state, for metrics and health.
+struct QueueStats {
+  size_t queued = 0, running = 0, succeeded = 0, failed = 0, cancelled = 0;  // jobs held now
+};
+
+inline bool is_terminal(const v1::JobEvent& e) {
+  return e.has_completed() || e.has_failed() || e.has_cancelled();
+}
+
+inline const char* state_name(v1::JobState s) {
+  switch (s) {
+    case v1::JOB_STATE_QUEUED:
+      return "queued";
+    case v1::JOB_STATE_RUNNING:
+      return "running";
+    case v1::JOB_STATE_SUCCEEDED:
+      return "succeeded";
+    case v1::JOB_STATE_FAILED:
+      return "failed";
+    case v1::JOB_STATE_CANCELLED:
+      return "cancelled";
+    default:
+      return "unspecified";
+  }
+}
+
+}  // namespace vpr::service

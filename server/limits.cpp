@@ -1,0 +1,71 @@
+#include "server/limits.h"
+
+#include <cstring>
+
+namespace vpr::service {
+namespace {
+
+std::string mib(uint64_t bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f MiB", double(bytes) / double(1 << 20));
+  return buf;
+}
+
+}  // namespace
+
+Status check_chunk(size_t chunk_bytes) {
+  if (chunk_bytes > kMaxChunkBytes)
+    return invalid_argument("mesh_chunk of " + std::to_string(chunk_bytes) + " bytes is over the chunk limit of " +
+                            std::to_string(kMaxChunkBytes) + " bytes (1 MiB); split the upload");
+  return Status::Ok();
+}
+
+Status check_upload_size(const ServerLimits& limits, uint64_t bytes, bool declared) {
+  if (bytes > limits.max_upload_bytes)
+    return resource_exhausted(std::string(declared ? "declared upload size " : "upload of at least ") + mib(bytes) +
+                              " is over the upload limit of " + mib(limits.max_upload_bytes) + " (--max-upload-mib " +
+                              std::to_string(limits.max_upload_bytes >> 20) + ")");
+  return Status::Ok();
+}
+
+Status check_upload_complete(uint64_t received, uint64_t declared, const uint8_t* head, size_t head_size) {
+  if (received == 0) return invalid_argument("the upload is empty: no mesh_chunk carried any bytes of a Draco file");
+  if (declared != 0 && received != declared)
+    return invalid_argument("received " + std::to_string(received) + " bytes but mesh_size_bytes declared " +
+                            std::to_string(declared) + " (truncated or overlong upload)");
+  if (head_size < 5 || std::memcmp(head, "DRACO", 5) != 0)
+    return invalid_argument("the upload is not a Draco file (it does not start with 'DRACO'); encode the mesh with "
+                            "Draco first");
+  return Status::Ok();
+}
+
+Status check_target(const ServerLimits& limits, uint32_t target_vertices) {
+  if (target_vertices < kMinTargetVertices || target_vertices > limits.max_target_vertices)
+    return invalid_argument("target_vertices is " + std::to_string(target_vertices) + "; this server accepts [" +
+                            std::to_string(kMinTargetVertices) + ", " + std::to_string(limits.max_target_vertices) +
+                            "] (--max-target-vertices " + std::to_string(limits.max_target_vertices) + ")");
+  return Status::Ok();
+}
+
+Status check_queue_length(const ServerLimits& limits, size_t waiting) {
+  if (waiting >= limits.max_queue)
+    return resource_exhausted("the job queue is full: " + std::to_string(waiting) + " jobs waiting, the queue limit is " +
+                              std::to_string(limits.max_queue) + " (--max-queue); retry later");
+  return Status::Ok();
+}
+
+Status check_client_jobs(const ServerLimits& limits, const std::string& peer, size_t unfinished) {
+  if (unfinished >= limits.max_jobs_per_client)
+    return resource_exhausted("client " + peer + " already has " + std::to_string(unfinished) +
+                              " unfinished jobs; the per-client limit is " +
+                              std::to_string(limits.max_jobs_per_client) + " (--max-jobs-per-client)");
+  return Status::Ok();
+}
+
+Status explain_mesh_limit(const Status& s, const ServerLimits& limits) {
+  if (s.code() != StatusCode::kResourceExhausted) return s;
+  return Status(s.code(), s.message() + " (server limits: --max-vertices " + std::to_string(limits.max_vertices) +
+                              ", --max-faces " + std::to_string(limits.max_faces) + ")");
+}
+
+}  // namespace vpr::service

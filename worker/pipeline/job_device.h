@@ -1,0 +1,40 @@
+// Where one job's parallel stages run (the fallback order of the GPU issue):
+// built without CUDA, or no usable device -> the CPU twins; otherwise a CUDA
+// stream of the job's own on the chosen GPU, so that several jobs can share it.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "exec_context.h"
+#include "status.h"
+
+namespace vpr {
+
+enum class DevicePolicy;
+
+class JobDevice {
+ public:
+  // kCpu -> the CPU. kAuto -> a GPU if the build has the twins and device
+  // `cuda_device` answers, else the CPU with the reason in cpu_reason().
+  // kCuda -> that GPU or UNAVAILABLE naming why there is none.
+  static StatusOr<std::unique_ptr<JobDevice>> select(DevicePolicy policy, int cuda_device, DeviceBudget* budget);
+  ~JobDevice();
+
+  const ExecContext& context() const { return ctx_; }
+  bool on_gpu() const { return ctx_.device == Device::kCuda; }
+  const std::string& description() const { return description_; }  // "cpu" or "cuda:0 NVIDIA H100 ..."
+  const std::string& cpu_reason() const { return cpu_reason_; }    // empty on the GPU or when asked for the CPU
+  // Waits for the job's stream (no-op on the CPU).
+  Status synchronize() const;
+
+ private:
+  JobDevice() = default;
+  ExecContext ctx_;
+  std::string description_ = "cpu";
+  std::string cpu_reason_;
+  struct Stream;
+  std::unique_ptr<Stream> stream_;
+};
+
+}  // namespace vpr

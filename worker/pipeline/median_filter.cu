@@ -1,0 +1,92 @@
+// Median pre-filter (Section III-A), GPU twin: one thread per pixel running
+// median_at / majority_at (image_kernels.h), the exact per-pixel rules the CPU
+// twin's sliding histogram and box counts compute, so both agree pixel for
+// pixel. Global reads with clamped coordinates: the 7 x 7 window stays in L1.
+#include "median_filter.h"
+
+#include <string>
+#include <utility>
+
+#include "gpu/cuda_check.h"
+#include "gpu/device_buffer.h"
+#include "image_kernels.h"
+#include "image_saliency_device.cuh"
+
+namespace vpr::cuda {
+namespace detail {
+namespace {
+
+__global__ void median_kernel(const uint8_t* __restrict__ gray, int w, int h, int r, uint8_t* __restrict__ out) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= w || y >= h) return;
+  out[static_cast<long long>(y) * w + x] = median_at(gray, w, h, x, y, r);
+}
+
+__global__ void majority_kernel(const uint8_t* __restrict__ mask, int w, int h, int r, uint8_t* __restrict__ out) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= w || y >= h) return;
+  out[static_cast<long long>(y) * w + x] = majority_at(mask, w, h, x, y, r);
+}
+
+}  // namespace
+
+Status launch_median(const uint8_t* gray, int w, int h, int size, uint8_t* out, const ExecContext& ctx) {
+  median_kernel<<<pixel_grid(w, h), pixel_block(), 0, stream_of(ctx)>>>(gray, w, h, size / 2, out);
+  VPR_CUDA_LAUNCHED("median_kernel");
+  return Status::Ok();
+}
+
+Status launch_majority(const uint8_t* mask, int w, int h, int size, uint8_t* out, const ExecContext& ctx) {
+  majority_kernel<<<pixel_grid(w, h), pixel_block(), 0, stream_of(ctx)>>>(mask, w, h, size / 2, out);
+  VPR_CUDA_LAUNCHED("majority_kernel");
+  return Status::Ok();
+}
+
+}  // namespace detail
+
+namespace {
+
+// The CPU twin's checks and messages.
+Status check_input(const char* what, int w, int h, size_t pixels, int size) {
+  if (w <= 0 || h <= 0 || pixels != size_t(w) * size_t(h)) {
+    return invalid_argument(std::string(what) + ": image is " + std::to_string(w) + " x " + std::to_string(h) +
+                            " with " + std::to_string(pixels) +
+                            " pixels; need a non-empty image with width * height pixels");
+  }
+  if (size < 1 || size % 2 == 0 || size > 255) {
+    return invalid_argument(std::string(what) + ": window size " + std::to_string(size) +
+                            " must be odd and in [1, 255]");
+  }
+  return Status::Ok();
+}
+
+using Launcher = Status (*)(const uint8_t*, int, int, int, uint8_t*, const ExecContext&);
+
+Status run_filter(const char* what, Launcher launch, const Image<uint8_t>& in, int size, Image<uint8_t>* out,
+                  const ExecContext& ctx) {
+  assert(out != nullptr);
+  VPR_RETURN_IF_ERROR(check_input(what, in.width, in.height, in.pixels.size(), size));
+  VPR_RETURN_IF_ERROR(detail::require_stream(ctx, what));
+  const int w = in.width, h = in.height;
+  DeviceBuffer<uint8_t> src, dst;
+  VPR_RETURN_IF_ERROR(src.upload(in.pixels.data(), in.pixels.size(), ctx));
+  VPR_RETURN_IF_ERROR(dst.allocate(in.pixels.size(), ctx));
+  VPR_RETURN_IF_ERROR(launch(src.get(), w, h, size, dst.get(), ctx));
+  Image<uint8_t> result(w, h, 0);
+  VPR_RETURN_IF_ERROR(dst.download(result.pixels.data(), result.pixels.size()));
+  VPR_CUDA_TRY(cudaStreamSynchronize(stream_of(ctx)));
+  *out = std::move(result);
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status median_filter(const GrayImage& in, int size, GrayImage* out, const ExecContext& ctx) {
+  return run_filter("median_filter", detail::launch_median, in, size, out, ctx);
+}
+
+Status majority_filter(const Mask& in, int size, Mask* out, const ExecContext& ctx) {
+  return run_filter("majority_filter", detail::launch_majority, in, size, out, ctx);
+}
+
+}  // namespace vpr::cuda
