@@ -1,13 +1,16 @@
-// `vpremesh eval REFERENCE CANDIDATE`: geometric distance, triangle quality and
-// topology of a remeshed model against its reference.
+// `vpremesh eval REFERENCE CANDIDATE`: geometric distance, visual similarity
+// (SSIM of renderings and line drawings from the same 14 cameras), triangle
+// quality and topology of a remeshed model against its reference.
 #include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "commands.h"
 #include "eval/hausdorff.h"
 #include "eval/mesh_quality.h"
+#include "eval/visual_similarity.h"
 #include "exit_codes.h"
 #include "io/mesh_io.h"
 
@@ -18,7 +21,22 @@ struct EvalArgs {
   std::string reference, candidate;
   bool json = false;
   HausdorffOptions hausdorff;
+  bool visual = true;
+  VisualSimilarityOptions visual_options;
+  std::string renderer = "auto";
 };
+
+nlohmann::json visual_json(const VisualSimilarity& v) {
+  nlohmann::json per_view = nlohmann::json::array();
+  for (const auto& p : v.per_view) per_view.push_back({{"view", p.view}, {"ssim", p.ssim}, {"line_ssim", p.line_ssim}});
+  return {{"ssim_mean", v.ssim_mean},
+          {"ssim_worst", v.ssim_worst},
+          {"ssim_worst_view", v.ssim_worst_view},
+          {"line_ssim_mean", v.line_mean},
+          {"line_ssim_worst", v.line_worst},
+          {"line_ssim_worst_view", v.line_worst_view},
+          {"per_view", per_view}};
+}
 
 nlohmann::json quality_json(const MeshQuality& q) {
   return {{"vertices", q.vertices},
@@ -57,6 +75,20 @@ int run_eval(const EvalArgs& a) {
     std::fprintf(stderr, "vpremesh: error: %s\n", h.status().to_string().c_str());
     return exit_code_for(h.status());
   }
+  std::optional<VisualSimilarity> visual;
+  if (a.visual) {
+    auto kind = parse_renderer_kind(a.renderer);
+    if (!kind.ok()) {
+      std::fprintf(stderr, "vpremesh: error: %s\n", kind.status().to_string().c_str());
+      return exit_code_for(kind.status());
+    }
+    auto v = visual_similarity(*ref, *cand, a.visual_options, *kind);
+    if (!v.ok()) {
+      std::fprintf(stderr, "vpremesh: error: visual similarity: %s\n", v.status().to_string().c_str());
+      return exit_code_for(v.status());
+    }
+    visual = *v;
+  }
   const MeshQuality qr = mesh_quality(*ref), qc = mesh_quality(*cand);
   if (a.json) {
     nlohmann::json j = {{"hausdorff",
@@ -69,12 +101,18 @@ int run_eval(const EvalArgs& a) {
                           {"diagonal", h->diagonal}}},
                         {"reference", quality_json(qr)},
                         {"candidate", quality_json(qc)}};
+    if (visual) j["visual"] = visual_json(*visual);
     std::printf("%s\n", j.dump(2).c_str());
     return kExitOk;
   }
   std::printf("Hausdorff (units of the reference bbox diagonal %.6g): max %.6f  mean %.6f  rms %.6f\n", h->diagonal,
               h->max, h->mean, h->rms);
-  std::printf("  reference->candidate max %.6f, candidate->reference max %.6f\n\n", h->forward_max, h->backward_max);
+  std::printf("  reference->candidate max %.6f, candidate->reference max %.6f\n", h->forward_max, h->backward_max);
+  if (visual)
+    std::printf("SSIM over %zu views: mean %.4f  worst %.4f (%s); line drawings: mean %.4f  worst %.4f (%s)\n",
+                visual->per_view.size(), visual->ssim_mean, visual->ssim_worst, visual->ssim_worst_view.c_str(),
+                visual->line_mean, visual->line_worst, visual->line_worst_view.c_str());
+  std::printf("\n");
   std::printf("%-10s %9s %9s %9s %10s %8s %8s %8s %8s\n", "mesh", "vertices", "faces", "min-angle", "<30deg",
               "nm-edges", "nm-verts", "holes", "parts");
   print_quality("reference", qr);
@@ -92,6 +130,11 @@ Command add_eval_command(CLI::App& app) {
   cmd->add_flag("--json", args->json, "Print JSON");
   cmd->add_option("--samples", args->hausdorff.samples_per_mesh, "Area-uniform samples per mesh")
       ->capture_default_str();
+  cmd->add_flag("!--no-visual", args->visual, "Skip the rendered visual similarity (SSIM)");
+  cmd->add_option("--views", args->visual_options.views, "SSIM views: 6 or 14")->capture_default_str();
+  cmd->add_option("--resolution", args->visual_options.resolution, "SSIM image size in pixels")
+      ->capture_default_str();
+  cmd->add_option("--renderer", args->renderer, "auto, egl or osmesa")->capture_default_str();
   return [args]() { return run_eval(*args); };
 }
 

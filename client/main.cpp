@@ -10,6 +10,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   const vpr::cli::Command local = vpr::cli::add_local_command(app);
   const vpr::cli::Command eval = vpr::cli::add_eval_command(app);
+  const vpr::cli::Command compare = vpr::cli::add_compare_command(app);
 #ifdef VPR_HAVE_SERVICE_CLIENT
   const vpr::cli::Command submit = vpr::cli::add_submit_command(app);
   const vpr::cli::Command status = vpr::cli::add_status_command(app);
@@ -24,6 +25,7 @@ int main(int argc, char** argv) {
   }
   if (app.got_subcommand("local")) return local();
   if (app.got_subcommand("eval")) return eval();
+  if (app.got_subcommand("compare")) return compare();
 #ifdef VPR_HAVE_SERVICE_CLIENT
   if (app.got_subcommand("submit")) return submit();
   if (app.got_subcommand("status")) return status();

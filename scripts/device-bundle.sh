@@ -12,10 +12,10 @@ cd "$(dirname "$0")/.."
 BUILD=build/device
 MODELS=${MODELS:-"igea.ply horse.ply bunny.obj kitten.obj fandisk.obj nefertiti.obj"}
 
-cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DVPR_CUDA=ON -DVPR_OSMESA=OFF \
+cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DVPR_CUDA="${CUDA:-ON}" -DVPR_OSMESA=OFF -DVPR_ALLOW_PARTIAL="${PARTIAL:-OFF}" \
   -DCMAKE_CUDA_ARCHITECTURES=90 >/dev/null
 targets=(vpremesh vpremesh-bench)
-for t in vpremesh-server image_saliency_gpu_test geometry_gpu_test pipeline_gpu_test job_device_test; do
+for t in ${EXTRA_TARGETS-vpremesh-server image_saliency_gpu_test geometry_gpu_test pipeline_gpu_test job_device_test}; do
   if ninja -C "$BUILD" -t targets all 2>/dev/null | grep -q "^$t:"; then targets+=("$t"); fi
 done
 cmake --build "$BUILD" -j"$(nproc)" --target "${targets[@]}"
@@ -32,9 +32,11 @@ done
   -exec cp --parents {} ../../.bundle/build/ \;)
 for t in "${targets[@]}"; do
   case "$t" in *_test)
-    f=$(find "$BUILD/tests" -maxdepth 2 -type f -name "$t" | head -1)
-    [ -n "$f" ] && cp --parents "${f#"$BUILD"/}" .bundle/build/ 2>/dev/null ||
-      (cd "$BUILD" && cp --parents "${f#"$BUILD"/}" ../../.bundle/build/) && bins+=(".bundle/build/${f#"$BUILD"/}") ;;
+    rel=$(cd "$BUILD" && find tests -maxdepth 2 -type f -name "$t" | head -1)
+    [ -n "$rel" ] || continue
+    mkdir -p ".bundle/build/$(dirname "$rel")"
+    cp "$BUILD/$rel" ".bundle/build/$rel"
+    bins+=(".bundle/build/$rel") ;;
   esac
 done
 strip --strip-unneeded "${bins[@]}"

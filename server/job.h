@@ -12,6 +12,8 @@
 
 namespace vpr::service {
 
+namespace v1 = ::vpremesh::v1;
+
 using Clock = std::chrono::steady_clock;
 
 // What Remesh and Submit hand to JobQueue::submit, after validating the spec.

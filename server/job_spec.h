@@ -19,6 +19,8 @@
 
 namespace vpr::service {
 
+namespace v1 = ::vpremesh::v1;
+
 // The default Draco quantization of returned meshes: the same as
 // `vpremesh local -o out.drc` (DracoOptions::position_bits), so both give
 // byte-identical files.

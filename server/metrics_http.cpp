@@ -34,7 +34,7 @@ void MetricsHttpServer::stop() {
   ctx_ = nullptr;
 }
 
-int MetricsHttpServer::handle(struct mg_connection* conn, void* self) {
+int MetricsHttpServer::handle(::mg_connection* conn, void* self) {
   const std::string body = static_cast<MetricsHttpServer*>(self)->render_();
   mg_printf(conn,
             "HTTP/1.1 200 OK\r\nContent-Type: text/plain; version=0.0.4; charset=utf-8\r\n"

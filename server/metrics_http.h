@@ -7,6 +7,7 @@
 #include "pipeline/status.h"
 
 struct mg_context;
+struct mg_connection;
 
 namespace vpr::service {
 
@@ -23,7 +24,7 @@ class MetricsHttpServer {
   void stop();
 
  private:
-  static int handle(struct mg_connection* conn, void* self);
+  static int handle(::mg_connection* conn, void* self);
   mg_context* ctx_ = nullptr;
   std::function<std::string()> render_;
 };

@@ -9,6 +9,8 @@
 
 namespace vpr::service {
 
+namespace v1 = ::vpremesh::v1;
+
 inline grpc::StatusCode to_grpc_code(StatusCode code) {
   switch (code) {
     case StatusCode::kOk:

@@ -99,10 +99,8 @@ double nearest_neighbor_cv(const float* points, size_t n) {
   return std::sqrt(var) / mean;
 }
 
-namespace cpu {
-
-Status awlop(const float* input_points, size_t np, float* particles, const float* particle_importance, size_t nx,
-             double h, const AwlopOptions& options, AwlopStats* stats, const ExecContext& /*ctx*/) {
+Status check_awlop_args(const float* input_points, size_t np, const float* particles, const float* particle_importance,
+                        size_t nx, double h, const AwlopOptions& options) {
   if (np == 0) return invalid_argument("AWLOP needs at least one input point, got 0");
   if (!all_finite(input_points, 3 * np)) return invalid_argument("AWLOP input points contain a non-finite coordinate");
   if (!all_finite(particles, 3 * nx)) return invalid_argument("AWLOP particles contain a non-finite coordinate");
@@ -119,6 +117,14 @@ Status awlop(const float* input_points, size_t np, float* particles, const float
     return invalid_argument("AWLOP iterations must be >= 0, got " + std::to_string(options.iterations));
   if (!(options.mu >= 0.0f) || !std::isfinite(options.mu))
     return invalid_argument("AWLOP mu must be >= 0 and finite, got " + std::to_string(options.mu));
+  return Status::Ok();
+}
+
+namespace cpu {
+
+Status awlop(const float* input_points, size_t np, float* particles, const float* particle_importance, size_t nx,
+             double h, const AwlopOptions& options, AwlopStats* stats, const ExecContext& /*ctx*/) {
+  VPR_RETURN_IF_ERROR(check_awlop_args(input_points, np, particles, particle_importance, nx, h, options));
 
   if (stats) {
     *stats = AwlopStats{};

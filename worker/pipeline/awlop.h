@@ -80,6 +80,10 @@ StatusOr<double> awlop_support_radius(AwlopSupport support, float h_factor, doub
 // a blue-noise sample much less.
 double nearest_neighbor_cv(const float* points, size_t n);
 
+// The argument checks of awlop below, shared by the CPU and GPU twins.
+Status check_awlop_args(const float* input_points, size_t np, const float* particles, const float* particle_importance,
+                        size_t nx, double h, const AwlopOptions& options);
+
 namespace cpu {
 
 // particles: nx x 3 floats, moved in place; particle_importance: nx values in (0, 1].
@@ -91,4 +95,17 @@ Status awlop(const float* input_points, size_t np, float* particles, const float
              double h, const AwlopOptions& options, AwlopStats* stats, const ExecContext& ctx);
 
 }  // namespace cpu
+
+// GPU twin, built when VPR_HAVE_CUDA (awlop.cu): the same Jacobi iterations
+// with the same neighbour sets (exact grid k-NN, rebuilt every iteration as
+// the particles move); the result agrees with the CPU twin's to ~1e-4 of the
+// bounding-box diagonal (exp and the order of float sums differ in the last
+// bits). Host arrays in and out; the work runs on ctx's stream, device memory
+// is charged to ctx.budget. k > 64 is UNAVAILABLE (use the CPU twin).
+namespace cuda {
+
+Status awlop(const float* input_points, size_t np, float* particles, const float* particle_importance, size_t nx,
+             double h, const AwlopOptions& options, AwlopStats* stats, const ExecContext& ctx);
+
+}  // namespace cuda
 }  // namespace vpr

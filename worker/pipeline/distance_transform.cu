@@ -9,13 +9,12 @@
 // Both give the exact integer minimum, and the distance is the float of the
 // correctly rounded double square root on either device, so the maps are
 // bit-identical to the CPU twin's.
-#include "distance_transform.h"
-
 #include <climits>
 #include <cmath>
 #include <string>
 #include <utility>
 
+#include "distance_transform.h"
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
 #include "image_saliency_device.cuh"

@@ -63,7 +63,16 @@ struct Functions {
   PFNGLFRAMEBUFFERRENDERBUFFERPROC FramebufferRenderbuffer = nullptr;
   PFNGLCHECKFRAMEBUFFERSTATUSPROC CheckFramebufferStatus = nullptr;
 
+  // Vertex buffer objects (GL 1.5): the mesh goes to the GPU once per job
+  // instead of once per view. Optional; client arrays otherwise.
+  PFNGLGENBUFFERSPROC GenBuffers = nullptr;
+  PFNGLDELETEBUFFERSPROC DeleteBuffers = nullptr;
+  PFNGLBINDBUFFERPROC BindBuffer = nullptr;
+  PFNGLBUFFERDATAPROC BufferData = nullptr;
+  PFNGLBUFFERSUBDATAPROC BufferSubData = nullptr;
+
   bool has_framebuffer_objects() const;
+  bool has_vertex_buffers() const { return GenBuffers && DeleteBuffers && BindBuffer && BufferData && BufferSubData; }
 };
 
 // Fills every entry. Must be called with a context current (some loaders only

@@ -3,13 +3,12 @@
 // intermediate images kept on the device. Per 512^2 view this is a dozen
 // kernels, two stream synchronizations (the point count, then the points) and
 // 1.5 MB of upload from a host snapshot, none from a DeviceSnapshot.
-#include "gpu_saliency.h"
-
 #include <string>
 #include <utility>
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
+#include "gpu_saliency.h"
 #include "image_saliency_device.cuh"
 
 namespace vpr::cuda {
@@ -30,8 +29,7 @@ Status view_saliency_points(const DeviceSnapshot& snapshot, const View& view, co
   }
   VPR_RETURN_IF_ERROR(detail::require_stream(ctx, "view_saliency_points"));
   detail::DeviceFeatures features;
-  VPR_RETURN_IF_ERROR(
-      detail::detect_features_device(snapshot.gray, snapshot.coverage, w, h, options, &features, ctx));
+  VPR_RETURN_IF_ERROR(detail::detect_features_device(snapshot.gray, snapshot.coverage, w, h, options, &features, ctx));
   FeatureImages images;
   if (debug) VPR_RETURN_IF_ERROR(detail::download_features(features, w, h, &images));
   // Synchronizes the stream, so the debug images have arrived too.

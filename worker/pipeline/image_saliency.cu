@@ -3,8 +3,6 @@
 // median and majority pre-filters, silhouette, inner features (Eq. 1-3) minus
 // the silhouette, distance map (Eq. 4), skeleton (Eq. 5), thin features. Each
 // step gives the CPU twin's pixels exactly (see the step's .cu file).
-#include "image_saliency.h"
-
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -12,6 +10,7 @@
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
+#include "image_saliency.h"
 #include "image_saliency_device.cuh"
 #include "inner_feature.h"
 
@@ -46,8 +45,8 @@ Status check_saliency_options(const ImageSaliencyOptions& o) {
 Status detect_features_device(const uint8_t* gray, const uint8_t* coverage, int w, int h,
                               const ImageSaliencyOptions& options, DeviceFeatures* out, const ExecContext& ctx) {
   const size_t n = size_t(w) * size_t(h);
-  for (DeviceBuffer<uint8_t>* b : {&out->filtered, &out->foreground, &out->silhouette, &out->inner, &out->skeleton,
-                                   &out->thin, &out->features}) {
+  for (DeviceBuffer<uint8_t>* b :
+       {&out->filtered, &out->foreground, &out->silhouette, &out->inner, &out->skeleton, &out->thin, &out->features}) {
     VPR_RETURN_IF_ERROR(b->allocate(n, ctx));
   }
   VPR_RETURN_IF_ERROR(out->silhouette_distance.allocate(n, ctx));
@@ -88,9 +87,12 @@ Status download_features(const DeviceFeatures& in, int w, int h, FeatureImages* 
   VPR_RETURN_IF_ERROR(in.filtered.download(out->filtered.pixels.data(), n));
   out->silhouette_distance = FloatImage(w, h, 0.f);
   VPR_RETURN_IF_ERROR(in.silhouette_distance.download(out->silhouette_distance.pixels.data(), n));
-  const std::pair<const DeviceBuffer<uint8_t>*, Mask*> masks[] = {
-      {&in.foreground, &out->foreground}, {&in.silhouette, &out->silhouette}, {&in.inner, &out->inner},
-      {&in.skeleton, &out->skeleton},     {&in.thin, &out->thin},             {&in.features, &out->features}};
+  const std::pair<const DeviceBuffer<uint8_t>*, Mask*> masks[] = {{&in.foreground, &out->foreground},
+                                                                  {&in.silhouette, &out->silhouette},
+                                                                  {&in.inner, &out->inner},
+                                                                  {&in.skeleton, &out->skeleton},
+                                                                  {&in.thin, &out->thin},
+                                                                  {&in.features, &out->features}};
   for (const auto& [device, host] : masks) {
     *host = Mask(w, h, 0);
     VPR_RETURN_IF_ERROR(device->download(host->pixels.data(), n));

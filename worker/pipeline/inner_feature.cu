@@ -2,8 +2,6 @@
 // pixel runs gaussian_sum_at and inner_feature_test (image_kernels.h). The
 // weights are the CPU twin's fixed-point integers (gaussian_weights_fixed) and
 // the sum is exact in int32 on either device, so the pixels are identical.
-#include "inner_feature.h"
-
 #include <cmath>
 #include <string>
 #include <utility>
@@ -12,14 +10,15 @@
 #include "gpu/device_buffer.h"
 #include "image_kernels.h"
 #include "image_saliency_device.cuh"
+#include "inner_feature.h"
 
 namespace vpr::cuda {
 namespace detail {
 namespace {
 
 __global__ void inner_feature_kernel(const uint8_t* __restrict__ filtered, const uint8_t* __restrict__ foreground,
-                                     const uint8_t* __restrict__ exclude, int w, int h,
-                                     const int* __restrict__ weights, int n, int c, uint8_t* __restrict__ out) {
+                                     const uint8_t* __restrict__ exclude, int w, int h, const int* __restrict__ weights,
+                                     int n, int c, uint8_t* __restrict__ out) {
   const int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
   if (x >= w || y >= h) return;
   const long long i = static_cast<long long>(y) * w + x;
@@ -76,8 +75,8 @@ Status inner_features(const GrayImage& filtered, const Mask& foreground, int n, 
   VPR_RETURN_IF_ERROR(fg.upload(foreground.pixels.data(), pixels, ctx));
   VPR_RETURN_IF_ERROR(device_weights.upload(weights.data(), weights.size(), ctx));
   VPR_RETURN_IF_ERROR(out.allocate(pixels, ctx));
-  VPR_RETURN_IF_ERROR(detail::launch_inner_features(gray.get(), fg.get(), nullptr, w, h, device_weights.get(), n, c,
-                                                    out.get(), ctx));
+  VPR_RETURN_IF_ERROR(
+      detail::launch_inner_features(gray.get(), fg.get(), nullptr, w, h, device_weights.get(), n, c, out.get(), ctx));
   Mask result(w, h, 0);
   VPR_RETURN_IF_ERROR(out.download(result.pixels.data(), pixels));
   VPR_CUDA_TRY(cudaStreamSynchronize(stream_of(ctx)));

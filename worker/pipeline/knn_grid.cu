@@ -3,11 +3,10 @@
 // histogram, exclusive scan, scatter). The order of points inside a cell
 // depends on the atomics, but no result does: the search ranks candidates by
 // (distance, index), a total order.
-#include <cub/block/block_reduce.cuh>
-#include <cub/device/device_scan.cuh>
-
 #include <algorithm>
 #include <cmath>
+#include <cub/block/block_reduce.cuh>
+#include <cub/device/device_scan.cuh>
 #include <string>
 
 #include "gpu/cuda_check.h"
@@ -108,7 +107,8 @@ __global__ void grid_assign_kernel(const float* points, uint32_t n, const GridPa
   const GridParams& gp = *params;
   int c[3];
   for (int a = 0; a < 3; ++a) c[a] = grid_coord(points[3 * size_t(i) + a], gp.lo[a], gp.inv_cell, gp.dims[a]);
-  const uint32_t cell = (uint32_t(c[2]) * uint32_t(gp.dims[1]) + uint32_t(c[1])) * uint32_t(gp.dims[0]) + uint32_t(c[0]);
+  const uint32_t cell =
+      (uint32_t(c[2]) * uint32_t(gp.dims[1]) + uint32_t(c[1])) * uint32_t(gp.dims[0]) + uint32_t(c[0]);
   cell_of[i] = cell;
   rank[i] = atomicAdd(&counts[cell], 1u);
 }
@@ -154,10 +154,10 @@ Status KnnGrid::build(const float* points, size_t n, const ExecContext& ctx) {
                                                            counts_.get());
   VPR_CUDA_LAUNCHED("grid_assign_kernel");
   size_t bytes = scan_temp_bytes_;
-  VPR_CUDA_TRY(cub::DeviceScan::ExclusiveSum(scan_temp_.get(), bytes, counts_.get(), cell_start_.get(), cells_ + 1,
-                                             stream));
-  grid_scatter_kernel<<<blocks_for(n), kBlock, 0, stream>>>(points, n32, cell_of_.get(), rank_.get(),
-                                                            cell_start_.get(), sorted_.get());
+  VPR_CUDA_TRY(
+      cub::DeviceScan::ExclusiveSum(scan_temp_.get(), bytes, counts_.get(), cell_start_.get(), cells_ + 1, stream));
+  grid_scatter_kernel<<<blocks_for(n), kBlock, 0, stream>>>(points, n32, cell_of_.get(), rank_.get(), cell_start_.get(),
+                                                            sorted_.get());
   VPR_CUDA_LAUNCHED("grid_scatter_kernel");
   return Status::Ok();
 }

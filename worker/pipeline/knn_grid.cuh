@@ -29,13 +29,16 @@ namespace vpr::cuda {
 
 // Largest k the search keeps in registers/local memory; callers check it.
 inline constexpr int kMaxGridK = 64;
+// Threads per block of the search kernels: small blocks, so that the few
+// thousand particles of AWLOP still spread over every SM.
+inline constexpr int kSearchBlock = 64;
 
 struct GridParams {
-  double lo[3];      // corner of cell (0, 0, 0), model units
-  double cell;       // cell edge length
-  double inv_cell;   // 1 / cell
-  double slack;      // bound on the rounding of cell assignment, model units
-  int dims[3];       // cells per axis; dims[0] * dims[1] * dims[2] <= capacity
+  double lo[3];     // corner of cell (0, 0, 0), model units
+  double cell;      // cell edge length
+  double inv_cell;  // 1 / cell
+  double slack;     // bound on the rounding of cell assignment, model units
+  int dims[3];      // cells per axis; dims[0] * dims[1] * dims[2] <= capacity
 };
 
 // Non-owning view handed to kernels. points: n entries sorted by cell, xyz in
@@ -77,6 +80,7 @@ struct TopK {
   __device__ static bool before(float d, uint32_t i, float od, uint32_t oi) { return d < od || (d == od && i < oi); }
 
   __device__ void offer(float d, uint32_t i) {
+    if (d != d) return;  // NaN (non-finite input): never a neighbour, never blocks one
     int pos;
     if (count == k) {
       if (!before(d, i, dist[k - 1], index[k - 1])) return;

@@ -2,8 +2,6 @@
 // median_at / majority_at (image_kernels.h), the exact per-pixel rules the CPU
 // twin's sliding histogram and box counts compute, so both agree pixel for
 // pixel. Global reads with clamped coordinates: the 7 x 7 window stays in L1.
-#include "median_filter.h"
-
 #include <string>
 #include <utility>
 
@@ -11,6 +9,7 @@
 #include "gpu/device_buffer.h"
 #include "image_kernels.h"
 #include "image_saliency_device.cuh"
+#include "median_filter.h"
 
 namespace vpr::cuda {
 namespace detail {

@@ -23,6 +23,45 @@ float resolve_depth_scale(const SaliencyFieldOptions& options, double target_spa
   return float(ratio);
 }
 
+Status check_knn_graph_args(size_t n, int k) {
+  if (k < 1) return invalid_argument("k-NN graph: k = " + std::to_string(k) + ", it must be at least 1");
+  if (n <= size_t(k))
+    return invalid_argument("k-NN graph: " + std::to_string(n) + " points (n) cannot have k = " + std::to_string(k) +
+                            " neighbours each; n must exceed k");
+  if (n > std::numeric_limits<uint32_t>::max())
+    return resource_exhausted("k-NN graph: " + std::to_string(n) + " points, the limit is " +
+                              std::to_string(std::numeric_limits<uint32_t>::max()));
+  return Status::Ok();
+}
+
+Status check_advancing_front_args(const uint32_t* neighbors, size_t n, int k) {
+  if (k < 1) return invalid_argument("advancing front: k = " + std::to_string(k) + ", it must be at least 1");
+  if (n > size_t(std::numeric_limits<int32_t>::max()))
+    return resource_exhausted("advancing front: " + std::to_string(n) + " nodes, the limit is " +
+                              std::to_string(std::numeric_limits<int32_t>::max()));
+  const size_t kk = size_t(k);
+  for (size_t i = 0; i < n * kk; ++i) {
+    if (neighbors[i] >= n)
+      return invalid_argument("advancing front: node " + std::to_string(i / kk) + " lists neighbour " +
+                              std::to_string(neighbors[i]) + " but the graph has " + std::to_string(n) + " nodes");
+  }
+  return Status::Ok();
+}
+
+Status check_saliency_field_args(const SaliencyFieldOptions& options, float depth_scale) {
+  if (options.k < 1)
+    return invalid_argument("saliency field: k = " + std::to_string(options.k) + ", it must be at least 1");
+  if (!(options.beta > 0.0f && options.beta < 1.0f))
+    return invalid_argument("saliency field: beta = " + std::to_string(options.beta) + ", it must lie in (0, 1)");
+  if (!(options.min_importance > 0.0f && options.min_importance <= 1.0f))
+    return invalid_argument("saliency field: min_importance = " + std::to_string(options.min_importance) +
+                            ", it must lie in (0, 1]");
+  if (!(depth_scale >= 1.0f) || !std::isfinite(depth_scale))
+    return invalid_argument("saliency field: depth_scale = " + std::to_string(depth_scale) +
+                            ", it must be finite and at least 1");
+  return Status::Ok();
+}
+
 namespace cpu {
 namespace {
 
@@ -91,13 +130,7 @@ void query_row(const KdTree& tree, const float* query, uint32_t self, size_t n, 
 
 Status knn_graph(const float* points, size_t n, int k, std::vector<uint32_t>* neighbors, const ExecContext&) {
   assert(neighbors != nullptr);
-  if (k < 1) return invalid_argument("k-NN graph: k = " + std::to_string(k) + ", it must be at least 1");
-  if (n <= size_t(k))
-    return invalid_argument("k-NN graph: " + std::to_string(n) + " points (n) cannot have k = " + std::to_string(k) +
-                            " neighbours each; n must exceed k");
-  if (n > std::numeric_limits<uint32_t>::max())
-    return resource_exhausted("k-NN graph: " + std::to_string(n) + " points, the limit is " +
-                              std::to_string(std::numeric_limits<uint32_t>::max()));
+  VPR_RETURN_IF_ERROR(check_knn_graph_args(n, k));
   assert(points != nullptr);
 
   // FLANN's Matrix wants a non-const pointer; the tree copies the points
@@ -123,16 +156,8 @@ Status knn_graph(const float* points, size_t n, int k, std::vector<uint32_t>* ne
 Status advancing_front(const uint32_t* neighbors, size_t n, int k, const uint8_t* is_seed, std::vector<int32_t>* depth,
                        const ExecContext&) {
   assert(depth != nullptr);
-  if (k < 1) return invalid_argument("advancing front: k = " + std::to_string(k) + ", it must be at least 1");
-  if (n > size_t(std::numeric_limits<int32_t>::max()))
-    return resource_exhausted("advancing front: " + std::to_string(n) + " nodes, the limit is " +
-                              std::to_string(std::numeric_limits<int32_t>::max()));
+  VPR_RETURN_IF_ERROR(check_advancing_front_args(neighbors, n, k));
   const size_t kk = size_t(k);
-  for (size_t i = 0; i < n * kk; ++i) {
-    if (neighbors[i] >= n)
-      return invalid_argument("advancing front: node " + std::to_string(i / kk) + " lists neighbour " +
-                              std::to_string(neighbors[i]) + " but the graph has " + std::to_string(n) + " nodes");
-  }
 
   depth->assign(n, -1);
   std::vector<uint32_t> unreached;
@@ -178,16 +203,7 @@ Status saliency_field(const float* vertices, size_t vertex_count, const float* s
                       size_t saliency_point_count, const SaliencyFieldOptions& options, float depth_scale,
                       std::vector<float>* importance, const ExecContext& ctx) {
   assert(importance != nullptr);
-  if (options.k < 1)
-    return invalid_argument("saliency field: k = " + std::to_string(options.k) + ", it must be at least 1");
-  if (!(options.beta > 0.0f && options.beta < 1.0f))
-    return invalid_argument("saliency field: beta = " + std::to_string(options.beta) + ", it must lie in (0, 1)");
-  if (!(options.min_importance > 0.0f && options.min_importance <= 1.0f))
-    return invalid_argument("saliency field: min_importance = " + std::to_string(options.min_importance) +
-                            ", it must lie in (0, 1]");
-  if (!(depth_scale >= 1.0f) || !std::isfinite(depth_scale))
-    return invalid_argument("saliency field: depth_scale = " + std::to_string(depth_scale) +
-                            ", it must be finite and at least 1");
+  VPR_RETURN_IF_ERROR(check_saliency_field_args(options, depth_scale));
 
   // No features at all: every vertex matters equally (uniform remeshing).
   if (saliency_point_count == 0) {

@@ -45,6 +45,15 @@ VPR_HD inline float importance_from_depth(int32_t depth, float beta, float min_i
   return value > double(min_importance) ? float(value) : min_importance;
 }
 
+// Argument checks shared by the CPU and GPU twins, so both fail alike.
+// knn_graph: k >= 1, k < n, n fits uint32 indices.
+Status check_knn_graph_args(size_t n, int k);
+// advancing_front: k >= 1, n fits int32 depths, every neighbour index < n.
+Status check_advancing_front_args(const uint32_t* neighbors, size_t n, int k);
+// saliency_field: options in range (see SaliencyFieldOptions), depth_scale
+// finite and >= 1.
+Status check_saliency_field_args(const SaliencyFieldOptions& options, float depth_scale);
+
 namespace cpu {
 
 // points: n x 3 floats. neighbors: n x k indices of the k nearest other points
@@ -77,4 +86,23 @@ Status saliency_field(const float* vertices, size_t vertex_count, const float* s
                       std::vector<float>* importance, const ExecContext& ctx);
 
 }  // namespace cpu
+
+// GPU twins, built when VPR_HAVE_CUDA (saliency_field.cu, knn_grid.cu): same
+// contracts and results as the CPU twins above (graph and depths identical;
+// importance within 1e-6, as pow differs in the last bit between devices).
+// Host arrays in and out; the work runs on ctx's stream, device memory is
+// charged to ctx.budget (RESOURCE_EXHAUSTED past it). The k-NN search keeps
+// its lists in registers: k > 64 is UNAVAILABLE (use the CPU twin).
+namespace cuda {
+
+Status knn_graph(const float* points, size_t n, int k, std::vector<uint32_t>* neighbors, const ExecContext& ctx);
+
+Status advancing_front(const uint32_t* neighbors, size_t n, int k, const uint8_t* is_seed, std::vector<int32_t>* depth,
+                       const ExecContext& ctx);
+
+Status saliency_field(const float* vertices, size_t vertex_count, const float* saliency_points,
+                      size_t saliency_point_count, const SaliencyFieldOptions& options, float depth_scale,
+                      std::vector<float>* importance, const ExecContext& ctx);
+
+}  // namespace cuda
 }  // namespace vpr

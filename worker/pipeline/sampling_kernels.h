@@ -24,6 +24,45 @@ VPR_HD inline double face_visual_quantity(const float* positions, const uint32_t
   return area * ((double(importance[a]) + double(importance[b]) + double(importance[c])) / 3.0);
 }
 
+// Eq. (9) in fixed point, so that the counts do not depend on the order in
+// which a device adds the quantities up. Each q_i becomes the integer
+// Q_i = round(q_i / q_max * 2^52): exact and the same on every device (one
+// IEEE division, a power-of-two scaling, an exact rounding). Their prefix sums
+// P_i are exact 128-bit integers whatever the scan order, and
+//   offsets[i] = round(target * P_i / T),  T = P_F,  round(x) = floor(x + 1/2)
+// is evaluated exactly in 128-bit integers (T < F 2^52 and target < 2^32, so
+// the numerator stays below 2^128 for F < 2^43). The quantization moves S_i by
+// at most F 2^-53 target units (1e-5 for 10^6 faces and 10^5 samples, and only
+// when one face dominates; typically far less).
+using QuantitySum = unsigned __int128;
+inline constexpr int kQuantityBits = 52;
+
+// q in [0, q_max], q_max > 0 and finite: Q in [0, 2^52].
+VPR_HD inline uint64_t quantize_quantity(double q, double q_max) {
+  const double scaled = (q / q_max) * double(uint64_t(1) << kQuantityBits);
+  return uint64_t(std::floor(scaled + 0.5));  // scaled <= 2^52: x + 1/2 is exact
+}
+
+VPR_HD inline double quantity_sum_to_double(QuantitySum x) {
+  return double(uint64_t(x >> 64)) * 18446744073709551616.0 + double(uint64_t(x));
+}
+
+// round(target * prefix / total) = floor((2 target prefix + total) / (2 total))
+// for 0 <= prefix <= total, total > 0: at most target, exactly target at
+// prefix = total. A double estimate lands within one or two of the quotient;
+// exact 128-bit products then settle it, which is cheaper than a 128-bit
+// division on either device and gives the same integer whatever the estimate.
+VPR_HD inline uint32_t rounded_offset(QuantitySum prefix, QuantitySum total, uint32_t target) {
+  const QuantitySum numerator = prefix * (2u * uint64_t(target)) + total;
+  const QuantitySum denominator = total * 2u;
+  const double ratio = quantity_sum_to_double(prefix) / quantity_sum_to_double(total);
+  const double estimate = std::floor(double(target) * ratio + 0.5);
+  uint64_t q = estimate > 0.0 ? uint64_t(estimate < double(target) ? estimate : double(target)) : 0;
+  while (q > 0 && QuantitySum(q) * denominator > numerator) --q;
+  while (QuantitySum(q + 1) * denominator <= numerator) ++q;
+  return uint32_t(q);
+}
+
 // The slice parametrisation of a triangle (A, B, C): s in [0, 1] sweeps from A
 // to the edge BC, t in [0, 1] runs along the slice from AB to AC:
 //   p = A + s ((1 - t)(B - A) + t (C - A)),  barycentric (1 - s, s (1 - t), s t).

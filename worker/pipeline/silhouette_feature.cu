@@ -3,8 +3,6 @@
 // near_thick_part in image_kernels.h). The skeleton kernel is float, but it
 // rounds the same on either device (see skeleton_response_at), so the masks
 // are identical.
-#include "silhouette_feature.h"
-
 #include <cmath>
 #include <string>
 #include <utility>
@@ -13,6 +11,7 @@
 #include "gpu/device_buffer.h"
 #include "image_kernels.h"
 #include "image_saliency_device.cuh"
+#include "silhouette_feature.h"
 
 namespace vpr::cuda {
 namespace detail {
@@ -25,8 +24,8 @@ __global__ void silhouette_kernel(const uint8_t* __restrict__ foreground, int w,
 }
 
 // The CPU's `masked` array: D on the foreground, 0 elsewhere.
-__global__ void mask_distance_kernel(const float* __restrict__ dist, const uint8_t* __restrict__ foreground,
-                                     size_t n, float* __restrict__ masked) {
+__global__ void mask_distance_kernel(const float* __restrict__ dist, const uint8_t* __restrict__ foreground, size_t n,
+                                     float* __restrict__ masked) {
   const size_t i = size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i < n) masked[i] = foreground[i] ? dist[i] : 0.f;
 }
@@ -108,11 +107,11 @@ Status thin_features_device(const uint8_t* foreground, const uint8_t* silhouette
   VPR_RETURN_IF_ERROR(stats.zero());
   VPR_RETURN_IF_ERROR(distance_transform_device(skeleton, w, h, silhouette, to_skeleton.get(), ctx));
   thin_stats_kernel<<<blocks_for(n), kBlock, 0, stream_of(ctx)>>>(silhouette_distance, foreground, skeleton, n,
-                                                                   stats.get());
+                                                                  stats.get());
   VPR_CUDA_LAUNCHED("thin_stats_kernel");
   thin_kernel<<<pixel_grid(w, h), pixel_block(), 0, stream_of(ctx)>>>(foreground, silhouette, silhouette_distance,
-                                                                       to_skeleton.get(), w, h, threshold_px,
-                                                                       stats.get(), inner, thin, features_out);
+                                                                      to_skeleton.get(), w, h, threshold_px,
+                                                                      stats.get(), inner, thin, features_out);
   VPR_CUDA_LAUNCHED("thin_kernel");
   return Status::Ok();
 }

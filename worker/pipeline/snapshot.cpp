@@ -189,6 +189,13 @@ Status load_functions(ProcLoader loader, Functions* gl) {
 #undef VPR_LOAD
   if (!missing.empty()) return unavailable("the GL library lacks " + missing);
 
+  const bool buffers = load_one(loader, "glGenBuffers", &gl->GenBuffers) &
+                       load_one(loader, "glDeleteBuffers", &gl->DeleteBuffers) &
+                       load_one(loader, "glBindBuffer", &gl->BindBuffer) &
+                       load_one(loader, "glBufferData", &gl->BufferData) &
+                       load_one(loader, "glBufferSubData", &gl->BufferSubData);
+  if (!buffers) gl->GenBuffers = nullptr;
+
   // Framebuffer objects: core names first, then the EXT extension's.
   const char* suffixes[] = {"", "EXT"};
   for (const char* s : suffixes) {
@@ -287,30 +294,45 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   const Aabb box = bounding_box(mesh);
   const Vec3d centre{0.5 * (double(box.lo[0]) + box.hi[0]), 0.5 * (double(box.lo[1]) + box.hi[1]),
                      0.5 * (double(box.lo[2]) + box.hi[2])};
-  std::vector<float> positions;
-  std::vector<Vec3> face_normals;  // float: at 40M faces the doubles would cost another 0.5 GB
-  std::vector<Vec3d> area_normals;
-  std::vector<uint32_t> kept_faces;
-  positions.reserve(9 * nf);
-  face_normals.reserve(nf);
-  area_normals.reserve(nf);
-  for (size_t f = 0; f < nf; ++f) {
-    const Vec3d a = load3d(mesh.positions.data(), mesh.indices[3 * f]) - centre;
-    const Vec3d b = load3d(mesh.positions.data(), mesh.indices[3 * f + 1]) - centre;
-    const Vec3d c = load3d(mesh.positions.data(), mesh.indices[3 * f + 2]) - centre;
-    const Vec3d n = cross(b - a, c - a);
-    const double len = norm(n);
-    if (!(len > 0.0) || !std::isfinite(len)) continue;  // degenerate: nothing to draw, no normal
-    face_normals.push_back(Vec3{float(n.x / len), float(n.y / len), float(n.z / len)});
-    area_normals.push_back(n);
-    kept_faces.push_back(uint32_t(f));
-    for (const Vec3d& p : {a, b, c}) {
-      positions.push_back(float(p.x));
-      positions.push_back(float(p.y));
-      positions.push_back(float(p.z));
+  // Two parallel passes: which faces are drawable (and their normals), then
+  // their corners at the slots a prefix sum gives them (face order kept).
+  std::vector<Vec3d> all_normals(nf);
+  std::vector<uint32_t> slot(nf + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f < r.end(); ++f) {
+      const Vec3d a = load3d(mesh.positions.data(), mesh.indices[3 * f]) - centre;
+      const Vec3d b = load3d(mesh.positions.data(), mesh.indices[3 * f + 1]) - centre;
+      const Vec3d c = load3d(mesh.positions.data(), mesh.indices[3 * f + 2]) - centre;
+      all_normals[f] = cross(b - a, c - a);
+      const double len = norm(all_normals[f]);
+      slot[f + 1] = (len > 0.0) && std::isfinite(len);  // degenerate: nothing to draw, no normal
     }
-  }
-  const size_t kept = face_normals.size();
+  });
+  for (size_t f = 0; f < nf; ++f) slot[f + 1] += slot[f];
+  const size_t kept = slot[nf];
+  std::vector<float> positions(9 * kept);
+  std::vector<Vec3> face_normals(kept);  // float: at 40M faces the doubles would cost another 0.5 GB
+  std::vector<Vec3d> area_normals(kept);
+  std::vector<uint32_t> kept_faces(kept);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f < r.end(); ++f) {
+      if (slot[f + 1] == slot[f]) continue;
+      const size_t k = slot[f];
+      const Vec3d n = all_normals[f];
+      const double len = norm(n);
+      face_normals[k] = Vec3{float(n.x / len), float(n.y / len), float(n.z / len)};
+      area_normals[k] = n;
+      kept_faces[k] = uint32_t(f);
+      for (int c = 0; c < 3; ++c) {
+        const Vec3d p = load3d(mesh.positions.data(), mesh.indices[3 * f + c]) - centre;
+        positions[9 * k + 3 * c] = float(p.x);
+        positions[9 * k + 3 * c + 1] = float(p.y);
+        positions[9 * k + 3 * c + 2] = float(p.z);
+      }
+    }
+  });
+  all_normals = {};
+  slot = {};
   const std::vector<Vec3> normals = corner_normals(mesh, kept_faces, face_normals, area_normals);
   area_normals = {};
   const GLsizei vertex_count = GLsizei(3 * kept);
@@ -337,8 +359,32 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   gl.LoadIdentity();
   gl.EnableClientState(GL_VERTEX_ARRAY);
   gl.EnableClientState(GL_COLOR_ARRAY);
-  gl.VertexPointer(3, GL_FLOAT, 0, positions.data());
-  gl.ColorPointer(4, GL_UNSIGNED_BYTE, 0, colors.data());
+  // With buffer objects the positions cross to the GPU once, and only the
+  // colours (a quarter of the bytes) once per view.
+  GLuint buffers[2] = {0, 0};
+  const bool use_buffers = gl.has_vertex_buffers();
+  const GLsizeiptr position_bytes = GLsizeiptr(positions.size() * sizeof(float));
+  const GLsizeiptr color_bytes = GLsizeiptr(colors.size());
+  if (use_buffers) {
+    gl.GenBuffers(2, buffers);
+    gl.BindBuffer(GL_ARRAY_BUFFER, buffers[0]);
+    gl.BufferData(GL_ARRAY_BUFFER, position_bytes, positions.data(), GL_STATIC_DRAW);
+    gl.VertexPointer(3, GL_FLOAT, 0, nullptr);
+    gl.BindBuffer(GL_ARRAY_BUFFER, buffers[1]);
+    gl.BufferData(GL_ARRAY_BUFFER, color_bytes, nullptr, GL_STREAM_DRAW);
+    gl.ColorPointer(4, GL_UNSIGNED_BYTE, 0, nullptr);
+  } else {
+    gl.VertexPointer(3, GL_FLOAT, 0, positions.data());
+    gl.ColorPointer(4, GL_UNSIGNED_BYTE, 0, colors.data());
+  }
+  auto release = [&] {
+    gl.DisableClientState(GL_VERTEX_ARRAY);
+    gl.DisableClientState(GL_COLOR_ARRAY);
+    if (use_buffers) {
+      gl.BindBuffer(GL_ARRAY_BUFFER, 0);
+      gl.DeleteBuffers(2, buffers);
+    }
+  };
 
   std::vector<uint8_t> rgba;
   std::vector<float> depth;
@@ -346,12 +392,15 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   for (const View& view : views) {
     const Vec3d l = view_light(view);
     const Vec3 light{float(l.x), float(l.y), float(l.z)};
-    for (size_t c = 0; c < 3 * kept; ++c) {
-      const float shade =
-          std::clamp(float(kAmbient) + float(1.0 - kAmbient) * std::abs(dot(normals[c], light)), 0.f, 1.f);
-      const uint8_t g = uint8_t(255.f * shade + 0.5f);
-      colors[4 * c] = colors[4 * c + 1] = colors[4 * c + 2] = g;
-    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * kept, 16384), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t c = r.begin(); c < r.end(); ++c) {
+        const float shade =
+            std::clamp(float(kAmbient) + float(1.0 - kAmbient) * std::abs(dot(normals[c], light)), 0.f, 1.f);
+        const uint8_t g = uint8_t(255.f * shade + 0.5f);
+        colors[4 * c] = colors[4 * c + 1] = colors[4 * c + 2] = g;
+      }
+    });
+    if (use_buffers) gl.BufferSubData(GL_ARRAY_BUFFER, 0, color_bytes, colors.data());
 
     // view_proj * translate(centre): the positions above are centre-relative.
     Mat4 m = view.view_proj;
@@ -370,8 +419,7 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     gl.ReadPixels(0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
     const GLenum error = gl.GetError();
     if (error != GL_NO_ERROR) {
-      gl.DisableClientState(GL_VERTEX_ARRAY);
-      gl.DisableClientState(GL_COLOR_ARRAY);
+      release();
       out->clear();
       return internal_error("GL error " + hex(error) + " while rendering view " + view.name);
     }
@@ -380,20 +428,21 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     s.gray = GrayImage(w, h, 0);
     s.depth = FloatImage(w, h, 1.0f);
     s.coverage = Mask(w, h, 0);
-    for (int y = 0; y < h; ++y) {
-      const size_t src_row = size_t(h - 1 - y) * w;  // GL rows count from the bottom
-      for (int x = 0; x < w; ++x) {
-        const float z = depth[src_row + x];
-        if (!(z < 1.0f)) continue;
-        s.depth.at(x, y) = z;
-        s.coverage.at(x, y) = 1;
-        s.gray.at(x, y) = rgba[4 * (src_row + x)];
+    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+      for (int y = rows.begin(); y < rows.end(); ++y) {
+        const size_t src_row = size_t(h - 1 - y) * w;  // GL rows count from the bottom
+        for (int x = 0; x < w; ++x) {
+          const float z = depth[src_row + x];
+          if (!(z < 1.0f)) continue;
+          s.depth.at(x, y) = z;
+          s.coverage.at(x, y) = 1;
+          s.gray.at(x, y) = rgba[4 * (src_row + x)];
+        }
       }
-    }
+    });
     out->push_back(std::move(s));
   }
-  gl.DisableClientState(GL_VERTEX_ARRAY);
-  gl.DisableClientState(GL_COLOR_ARRAY);
+  release();
   return Status::Ok();
 }
 

@@ -6,17 +6,15 @@
 // round-to-nearest intrinsics so that nvcc fuses no multiply-add: the points
 // match the CPU twin's to the last bit on IEEE hosts that do not contract
 // either (x86-64 without -mfma, our build).
-#include "unproject.h"
-
-#include <cub/device/device_scan.cuh>
-
 #include <climits>
+#include <cub/device/device_scan.cuh>
 #include <string>
 #include <vector>
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
 #include "image_saliency_device.cuh"
+#include "unproject.h"
 
 namespace vpr::cuda {
 namespace detail {

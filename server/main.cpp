@@ -1,0 +1,197 @@
+// vpremesh-server: the remeshing service. An in-process job queue feeds N
+// worker threads running the pipeline; gRPC (callback API) in front, with the
+// standard health service and server reflection; Prometheus metrics over
+// HTTP. SIGTERM drains: new jobs are refused, waiting ones fail with
+// UNAVAILABLE, running ones get --drain-grace seconds to finish.
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <signal.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <memory>
+
+#include "server/embedded_queue.h"
+#include "server/metrics_http.h"
+#include "server/remesh_service.h"
+#include "server/server_options.h"
+#include "server/service_metrics.h"
+#include "server/worker_pool.h"
+#ifdef VPR_HAVE_CUDA
+#include "gpu/cuda_device.h"
+#endif
+
+namespace vpr::service {
+namespace {
+
+constexpr const char* kServiceName = "vpremesh.v1.RemeshService";
+
+int fail(const std::string& message, int code = 1) {
+  spdlog::error("{}", message);
+  return code;
+}
+
+// The host part of HOST:PORT ("[::]" kept with its brackets).
+std::string host_of(const std::string& address) {
+  return address.substr(0, address.rfind(':'));
+}
+
+std::chrono::milliseconds seconds(double s) {
+  return std::chrono::milliseconds(int64_t(s * 1000));
+}
+
+int run(const ServerOptions& o) {
+  spdlog::set_level(spdlog::level::from_str(o.log_level));
+  if (Status s = check_server_options(o); !s.ok()) return fail(s.message(), 2);
+
+  // Every thread started from here on inherits the blocked signals; the main
+  // thread takes them with sigtimedwait.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  // Devices and workers.
+  int gpus = 0;
+  std::string no_gpu_why = "this build has no CUDA support";
+#ifdef VPR_HAVE_CUDA
+  if (o.device != "cpu") gpus = int(cuda_devices(&no_gpu_why).size());
+#endif
+  if (o.device == "cuda" && gpus == 0) return fail("--device cuda but no CUDA device is usable: " + no_gpu_why, 2);
+  const DevicePolicy policy = o.device == "cpu" ? DevicePolicy::kCpu
+                              : o.device == "cuda" ? DevicePolicy::kCuda
+                                                   : DevicePolicy::kAuto;
+  // On the CPU one worker is enough: each stage already uses every core (TBB).
+  const int workers = o.workers > 0 ? o.workers : std::max(gpus, 1);
+  auto renderer = parse_renderer_kind(o.renderer);
+  if (!renderer.ok()) return fail(renderer.status().message(), 2);
+
+  MetricsRegistry registry;
+  ServiceMetrics metrics(registry);
+  EmbeddedQueueOptions qo;
+  qo.limits = o.limits;
+  qo.result_ttl = seconds(o.result_ttl_s);
+  qo.on_state = [&metrics](const std::string&, v1::JobState state) {
+    if (state == v1::JOB_STATE_SUCCEEDED || state == v1::JOB_STATE_FAILED || state == v1::JOB_STATE_CANCELLED)
+      metrics.finished(state).inc();
+  };
+  EmbeddedQueue queue(qo);
+
+  WorkerPoolOptions wo;
+  wo.workers = workers;
+  wo.device = policy;
+  wo.renderer = *renderer;
+  wo.cuda_devices = policy == DevicePolicy::kCpu ? 0 : gpus;
+  wo.limits = o.limits;
+  WorkerPool pool(queue, wo, &metrics);
+  // On every return: wake the workers so the pool's destructor can join them.
+  struct CloseOnExit {
+    EmbeddedQueue& queue;
+    ~CloseOnExit() { queue.close(); }
+  } close_on_exit{queue};
+  std::string why;
+  const size_t live = pool.start(&why);
+  spdlog::info("{} of {} workers live (device {}, {} GPU(s))", live, workers, o.device, wo.cuda_devices);
+  if (live == 0) spdlog::error("no worker can run jobs: {}; serving NOT_SERVING", why);
+
+  std::atomic<bool> draining{false};
+  ServiceConfig config;
+  config.limits = o.limits;
+  config.has_cuda = wo.cuda_devices > 0;
+  config.admission = [&pool, &draining, why]() -> Status {
+    if (draining) return unavailable("the server is shutting down and accepts no new jobs; retry elsewhere");
+    if (pool.live() == 0) return unavailable("no worker can run jobs on this server: " + why);
+    return Status::Ok();
+  };
+  RemeshServiceImpl service(queue, config, &metrics);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(o.listen, grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(&service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  if (!server || port == 0) return fail("cannot listen on " + o.listen + " (--listen): address in use or invalid", 2);
+  auto set_serving = [&](bool serving) {
+    server->GetHealthCheckService()->SetServingStatus(serving);
+    server->GetHealthCheckService()->SetServingStatus(kServiceName, serving);
+  };
+  set_serving(live > 0);
+
+  // The parseable line tests and scripts wait for.
+  std::printf("vpremesh-server listening on %s:%d\n", host_of(o.listen).c_str(), port);
+  std::fflush(stdout);
+  spdlog::info("listening on {}:{} with {} worker(s); limits: upload {} MiB, {} vertices, {} faces, queue {}, "
+               "{} jobs per client; results kept {} s",
+               host_of(o.listen), port, workers, o.limits.max_upload_bytes >> 20, o.limits.max_vertices,
+               o.limits.max_faces, o.limits.max_queue, o.limits.max_jobs_per_client, o.result_ttl_s);
+
+  MetricsHttpServer http;
+  if (!o.metrics_listen.empty()) {
+    auto metrics_port = http.start(o.metrics_listen, [&] {
+      metrics.set_queue(queue.stats());
+      return registry.render();
+    });
+    if (!metrics_port.ok()) return fail(metrics_port.status().message(), 2);
+    std::printf("vpremesh-server metrics on http://%s:%d/metrics\n", host_of(o.metrics_listen).c_str(),
+                *metrics_port);
+    std::fflush(stdout);
+  }
+
+  // Wait for SIGTERM / SIGINT, forgetting expired results once a second.
+  int signal_number = -1;
+  while (signal_number < 0) {
+    timespec one_second{1, 0};
+    signal_number = sigtimedwait(&signals, nullptr, &one_second);
+    queue.expire();
+  }
+
+  spdlog::info("{}: draining (grace {} s)", signal_number == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_grace_s);
+  draining = true;
+  set_serving(false);
+  const size_t failed = queue.drain(unavailable(
+      "the server is shutting down: the job was still waiting in the queue and did not run; submit it again"));
+  if (failed) spdlog::info("{} waiting job(s) failed with UNAVAILABLE", failed);
+  if (!pool.wait_idle(seconds(o.drain_grace_s))) {
+    spdlog::warn("{} job(s) still running after the drain grace period; cancelling them", pool.busy());
+    pool.cancel_running(unavailable("the server shut down before the job finished (--drain-grace " +
+                                    std::to_string(int(o.drain_grace_s)) + " s)"));
+    // They stop at their next stage boundary.
+    if (!pool.wait_idle(std::chrono::seconds(10)))
+      spdlog::warn("a job did not reach a stage boundary within 10 s of cancellation");
+  }
+  // Let open streams send their last events, then end them.
+  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
+  http.stop();
+  queue.close();
+  if (pool.busy() > 0) {
+    spdlog::warn("exiting with a job still inside a pipeline stage");
+    std::fflush(nullptr);
+    std::_Exit(0);
+  }
+  pool.join();
+  spdlog::info("stopped");
+  return 0;
+}
+
+}  // namespace
+}  // namespace vpr::service
+
+int main(int argc, char** argv) {
+  vpr::service::ServerOptions options;
+  CLI::App app{"vpremesh-server: visual-perception-guided remeshing as a gRPC service"};
+  vpr::service::add_server_options(app, &options);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  spdlog::set_default_logger(spdlog::stderr_color_mt("vpremesh-server"));
+  spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ %v");
+  return vpr::service::run(options);
+}

@@ -1,0 +1,48 @@
+// The RemeshService RPCs on gRPC's callback API. Talks to the workers only
+// through JobQueue; uploads are checked here (spec, sizes, chunking) and the
+// mesh itself is decoded by the worker.
+#pragma once
+
+#include <functional>
+
+#include "server/job_queue.h"
+#include "server/limits.h"
+#include "server/service_metrics.h"
+#include "vpremesh/v1/remesh.grpc.pb.h"
+
+namespace vpr::service {
+
+struct ServiceConfig {
+  ServerLimits limits;
+  bool has_cuda = false;  // DEVICE_CUDA jobs are FAILED_PRECONDITION without a GPU
+  // OK while jobs can be accepted; UNAVAILABLE (with the reason) when no
+  // worker is live. Null: always OK.
+  std::function<Status()> admission;
+};
+
+class RemeshServiceImpl final : public v1::RemeshService::CallbackService {
+ public:
+  RemeshServiceImpl(JobQueue& queue, ServiceConfig config, ServiceMetrics* metrics)
+      : queue_(queue), config_(std::move(config)), metrics_(metrics) {}
+
+  grpc::ServerBidiReactor<v1::RemeshRequest, v1::JobEvent>* Remesh(grpc::CallbackServerContext* context) override;
+  grpc::ServerReadReactor<v1::RemeshRequest>* Submit(grpc::CallbackServerContext* context,
+                                                     v1::JobRef* response) override;
+  grpc::ServerWriteReactor<v1::JobEvent>* Watch(grpc::CallbackServerContext* context,
+                                                const v1::JobRef* request) override;
+  grpc::ServerUnaryReactor* GetJob(grpc::CallbackServerContext* context, const v1::JobRef* request,
+                                   v1::JobStatus* response) override;
+  grpc::ServerUnaryReactor* CancelJob(grpc::CallbackServerContext* context, const v1::JobRef* request,
+                                      v1::JobStatus* response) override;
+
+  JobQueue& queue() { return queue_; }
+  const ServiceConfig& config() const { return config_; }
+  ServiceMetrics* metrics() { return metrics_; }
+
+ private:
+  JobQueue& queue_;
+  ServiceConfig config_;
+  ServiceMetrics* metrics_;
+};
+
+}  // namespace vpr::service

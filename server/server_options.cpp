@@ -1,0 +1,66 @@
+#include "server/server_options.h"
+
+#include <memory>
+
+namespace vpr::service {
+
+void add_server_options(CLI::App& app, ServerOptions* o) {
+  app.add_option("--listen", o->listen, "gRPC address HOST:PORT (port 0 picks a free one)")->capture_default_str();
+  app.add_option("--workers", o->workers,
+                 "Worker threads running the pipeline; 0: one per GPU, or 1 on CPU (the pipeline itself "
+                 "uses every core through TBB)")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str();
+  app.add_option("--device", o->device, "Where stages run: auto (GPU when present), cpu or cuda")
+      ->check(CLI::IsMember({"auto", "cpu", "cuda"}))
+      ->capture_default_str();
+  app.add_option("--renderer", o->renderer, "Snapshot renderer: auto, egl or osmesa")
+      ->check(CLI::IsMember({"auto", "egl", "osmesa"}))
+      ->capture_default_str();
+  app.add_option("--metrics-listen", o->metrics_listen, "Serve Prometheus metrics at http://HOST:PORT/metrics");
+  app.add_option("--result-ttl", o->result_ttl_s, "Seconds finished jobs stay available to Watch and GetJob")
+      ->check(CLI::Range(0.0, 7 * 86400.0))
+      ->capture_default_str();
+  app.add_option("--drain-grace", o->drain_grace_s, "Seconds SIGTERM waits for running jobs before cancelling them")
+      ->check(CLI::Range(0.0, 86400.0))
+      ->capture_default_str();
+  app.add_option("--log-level", o->log_level, "trace, debug, info, warn, error")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
+      ->capture_default_str();
+
+  // Limits: MiB on the command line, bytes inside.
+  auto upload_mib = std::make_shared<uint64_t>(o->limits.max_upload_bytes >> 20);
+  app.add_option("--max-upload-mib", *upload_mib, "Largest Draco upload in MiB")
+      ->check(CLI::Range(uint64_t(1), uint64_t(1) << 20))
+      ->capture_default_str()
+      ->each([o, upload_mib](const std::string&) { o->limits.max_upload_bytes = *upload_mib << 20; });
+  app.add_option("--max-vertices", o->limits.max_vertices, "Most input vertices per job")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-faces", o->limits.max_faces, "Most input faces per job")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-target-vertices", o->limits.max_target_vertices, "Largest target_vertices accepted")
+      ->check(CLI::Range(kMinTargetVertices, kMaxTargetVertices))
+      ->capture_default_str();
+  app.add_option("--max-queue", o->limits.max_queue, "Most jobs waiting; more are RESOURCE_EXHAUSTED")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-jobs-per-client", o->limits.max_jobs_per_client,
+                 "Most unfinished jobs per client connection")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+}
+
+Status check_server_options(const ServerOptions& o) {
+  if (o.listen.empty() || o.listen.find(':') == std::string::npos)
+    return invalid_argument("--listen '" + o.listen + "' must be HOST:PORT");
+  if (!o.metrics_listen.empty() && o.metrics_listen.find(':') == std::string::npos)
+    return invalid_argument("--metrics-listen '" + o.metrics_listen + "' must be HOST:PORT");
+  if (o.limits.max_target_vertices < kMinTargetVertices || o.limits.max_target_vertices > kMaxTargetVertices)
+    return invalid_argument("--max-target-vertices must be in [" + std::to_string(kMinTargetVertices) + ", " +
+                            std::to_string(kMaxTargetVertices) + "]");
+  return Status::Ok();
+}
+
+}  // namespace vpr::service

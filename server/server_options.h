@@ -1,0 +1,31 @@
+// vpremesh-server's command line.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "server/limits.h"
+
+namespace vpr::service {
+
+struct ServerOptions {
+  std::string listen = "0.0.0.0:50051";  // --listen; PORT 0 picks a free port (printed at startup)
+  int workers = 0;                        // --workers; 0: one per GPU, or 1 on a CPU-only machine
+  std::string device = "auto";            // --device auto|cpu|cuda
+  std::string renderer = "auto";          // --renderer auto|egl|osmesa
+  std::string metrics_listen;             // --metrics-listen HOST:PORT; empty: no metrics endpoint
+  double result_ttl_s = 600;              // --result-ttl: how long finished jobs stay watchable
+  double drain_grace_s = 30;              // --drain-grace: SIGTERM waits this long for running jobs
+  std::string log_level = "info";         // --log-level
+  ServerLimits limits;
+};
+
+// Registers every flag on `app`, writing into *options. The limit flags take
+// MiB and counts; their defaults are ServerLimits'.
+void add_server_options(CLI::App& app, ServerOptions* options);
+
+// Cross-field checks after parsing (e.g. --max-target-vertices within the
+// pipeline's range); INVALID_ARGUMENT names the flag.
+Status check_server_options(const ServerOptions& options);
+
+}  // namespace vpr::service

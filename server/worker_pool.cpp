@@ -1,0 +1,256 @@
+#include "server/worker_pool.h"
+
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <new>
+
+#include "io/mesh_io.h"
+#include "server/job_spec.h"
+#include "server/status_mapping.h"
+#ifdef VPR_HAVE_CUDA
+#include "gpu/cuda_device.h"
+#endif
+
+namespace vpr::service {
+namespace {
+
+double ms_since(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+
+v1::JobEvent failed_event(const Status& s) {
+  v1::JobEvent e;
+  *e.mutable_failed() = to_failure(s);
+  return e;
+}
+
+// The job's outcome when the pipeline (or a step around it) stops: a
+// cancellation request wins over the error it caused.
+v1::JobEvent end_event(JobQueue& queue, const std::string& id, const Status& s) {
+  if (std::optional<Status> why = queue.cancellation(id)) {
+    v1::JobEvent e;
+    *e.mutable_cancelled() = to_failure(*why);
+    return e;
+  }
+  return failed_event(s);
+}
+
+// Streams a float array as FloatChunk events of at most 1 MiB each.
+template <class Setter>
+uint64_t publish_floats(JobQueue& queue, const std::string& id, const std::vector<float>& values, Setter chunk_of) {
+  for (size_t offset = 0; offset < values.size(); offset += kFloatsPerChunk) {
+    const size_t n = std::min(kFloatsPerChunk, values.size() - offset);
+    v1::JobEvent e;
+    v1::FloatChunk* c = chunk_of(&e);
+    c->set_offset(offset);
+    c->set_total(values.size());
+    c->mutable_values()->Add(values.begin() + offset, values.begin() + offset + n);
+    queue.publish(id, std::move(e));
+  }
+  return values.size() * sizeof(float);
+}
+
+void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx) {
+  const auto run_start = Clock::now();
+  const std::string& id = job.id;
+  {
+    v1::JobEvent e;
+    e.mutable_started()->set_worker(ctx.name);
+    e.mutable_started()->set_device(ctx.device);
+    e.mutable_started()->set_queue_ms(job.queue_ms);
+    queue.publish(id, std::move(e));
+  }
+  auto stopped = [&]() { return queue.cancellation(id).has_value(); };
+
+  JobOptions options;
+  if (Status s = job_options_from_spec(job.spec, &options); !s.ok()) return queue.publish(id, failed_event(s));
+  PipelineOptions& po = options.pipeline;
+  po.shared_renderer = ctx.renderer;
+  po.device = options.device == v1::DEVICE_CPU    ? DevicePolicy::kCpu
+              : options.device == v1::DEVICE_CUDA ? DevicePolicy::kCuda
+                                                  : ctx.device_policy;
+  po.cuda_device = ctx.cuda_device;
+  po.keep_going = [&]() { return !stopped(); };
+
+  if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
+  v1::Completed summary;
+  PipelineResult result;
+  {
+    // The upload is freed as soon as it is decoded, the input mesh when the
+    // pipeline returns.
+    auto mesh = parse_mesh(job.mesh.data(), job.mesh.size(), MeshFormat::kDraco, ctx.limits.mesh_limits());
+    job.mesh = {};
+    job.mesh.shrink_to_fit();
+    if (!mesh.ok()) return queue.publish(id, failed_event(explain_mesh_limit(mesh.status(), ctx.limits)));
+    summary.set_input_vertices(uint32_t(mesh->vertex_count()));
+    summary.set_input_faces(uint32_t(mesh->face_count()));
+    if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
+    auto run = run_pipeline(*mesh, po);
+    if (!run.ok()) return queue.publish(id, end_event(queue, id, run.status()));
+    result = std::move(run).value();
+  }
+  for (const StageTiming& t : result.stages) {
+    v1::JobEvent e;
+    v1::Stage* st = e.mutable_stage();
+    st->set_name(t.name);
+    st->set_ms(t.ms);
+    st->set_device(t.device);
+    st->set_note(t.note);
+    queue.publish(id, std::move(e));
+    if (ctx.metrics) ctx.metrics->stage_seconds(t.name).observe(t.ms / 1000.0);
+  }
+  if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
+
+  uint64_t bytes_out = 0;
+  if (job.spec.return_mesh()) {
+    // The same encoder settings as `vpremesh local -o out.drc` (saliency as
+    // the generic attribute "saliency"), so both give the same file.
+    DracoOptions draco;
+    draco.position_bits = options.result_quantization_bits;
+    auto encoded = encode_draco(result.mesh, result.saliency.data(), draco);
+    if (!encoded.ok()) return queue.publish(id, failed_event(encoded.status()));
+    const std::vector<uint8_t>& bytes = *encoded;
+    summary.set_result_bytes(bytes.size());
+    for (size_t offset = 0; offset < bytes.size(); offset += kMaxChunkBytes) {
+      const size_t n = std::min(kMaxChunkBytes, bytes.size() - offset);
+      v1::JobEvent e;
+      v1::BytesChunk* c = e.mutable_result();
+      c->set_offset(offset);
+      c->set_total(bytes.size());
+      c->set_data(bytes.data() + offset, n);
+      queue.publish(id, std::move(e));
+    }
+    bytes_out += bytes.size();
+  }
+  if (job.spec.return_saliency())
+    bytes_out += publish_floats(queue, id, result.saliency, [](v1::JobEvent* e) { return e->mutable_saliency(); });
+
+  summary.set_output_vertices(uint32_t(result.mesh.vertex_count()));
+  summary.set_output_faces(uint32_t(result.mesh.face_count()));
+  summary.set_saliency_points(result.saliency_points);
+  summary.set_queue_ms(job.queue_ms);
+  summary.set_run_ms(ms_since(run_start));
+  summary.set_total_ms(job.queue_ms + summary.run_ms());
+  summary.set_renderer(result.renderer);
+  if (ctx.metrics) {
+    ctx.metrics->bytes_out.inc(double(bytes_out));
+    ctx.metrics->job_seconds().observe(summary.total_ms() / 1000.0);
+  }
+  v1::JobEvent e;
+  *e.mutable_completed() = summary;
+  queue.publish(id, std::move(e));
+}
+
+}  // namespace
+
+void run_job(JobQueue& queue, ClaimedJob job, const WorkerContext& ctx) {
+  const std::string id = job.id;
+  try {
+    run_job_or_throw(queue, job, ctx);
+  } catch (const std::bad_alloc&) {
+    queue.publish(id, failed_event(resource_exhausted("out of memory while running the job")));
+  } catch (const std::exception& e) {
+    queue.publish(id, failed_event(internal_error(std::string("unexpected error: ") + e.what())));
+  }
+}
+
+WorkerPool::WorkerPool(JobQueue& queue, WorkerPoolOptions options, ServiceMetrics* metrics)
+    : queue_(queue), options_(std::move(options)), metrics_(metrics) {}
+
+WorkerPool::~WorkerPool() {
+  join();
+}
+
+size_t WorkerPool::start(std::string* why) {
+  running_.assign(size_t(options_.workers), "");
+  for (int i = 0; i < options_.workers; ++i) threads_.emplace_back([this, i] { worker_main(i); });
+  std::unique_lock<std::mutex> lock(mu_);
+  changed_.wait(lock, [&] { return ready_ == size_t(options_.workers); });
+  if (why) {
+    why->clear();
+    for (const std::string& f : failures_) *why += (why->empty() ? "" : "; ") + f;
+  }
+  return live_;
+}
+
+void WorkerPool::worker_main(int index) {
+  char host[256] = "localhost";
+  gethostname(host, sizeof host - 1);
+  WorkerContext ctx;
+  ctx.name = std::string(host) + ":" + std::to_string(getpid()) + "/worker-" + std::to_string(index);
+  ctx.device_policy = options_.device;
+  ctx.limits = options_.limits;
+  ctx.metrics = metrics_;
+  if (options_.device != DevicePolicy::kCpu && options_.cuda_devices > 0) {
+    ctx.cuda_device = index % options_.cuda_devices;
+    ctx.device = "cuda:" + std::to_string(ctx.cuda_device);
+#ifdef VPR_HAVE_CUDA
+    std::string why;
+    const std::vector<CudaDeviceInfo> gpus = cuda_devices(&why);
+    if (size_t(ctx.cuda_device) < gpus.size()) ctx.device += " " + gpus[size_t(ctx.cuda_device)].name;
+    if (Status s = init_cuda_device(ctx.cuda_device); !s.ok())
+      spdlog::warn("{}: cannot initialise {}: {}", ctx.name, ctx.device, s.message());
+#endif
+  }
+  auto renderer = create_renderer(options_.renderer);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (renderer.ok()) {
+      ctx.renderer = renderer->get();
+      ++live_;
+      spdlog::info("{} ready: device {}, renderer {}", ctx.name, ctx.device, ctx.renderer->description());
+    } else {
+      failures_.push_back(ctx.name + ": " + renderer.status().message());
+      spdlog::error("{} cannot create a renderer: {}", ctx.name, renderer.status().message());
+    }
+    ++ready_;
+    if (metrics_) metrics_->live_workers.set(double(live_));
+  }
+  changed_.notify_all();
+  if (!renderer.ok()) return;
+
+  while (std::optional<ClaimedJob> job = queue_.claim(ctx.name)) {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      running_[size_t(index)] = job->id;
+      ++busy_;
+      if (metrics_) metrics_->busy_workers.set(double(busy_));
+    }
+    run_job(queue_, std::move(*job), ctx);
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      running_[size_t(index)].clear();
+      --busy_;
+      if (metrics_) metrics_->busy_workers.set(double(busy_));
+    }
+    changed_.notify_all();
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  --live_;
+  if (metrics_) metrics_->live_workers.set(double(live_));
+}
+
+bool WorkerPool::wait_idle(std::chrono::milliseconds timeout) {
+  std::unique_lock<std::mutex> lock(mu_);
+  return changed_.wait_for(lock, timeout, [&] { return busy_ == 0; });
+}
+
+void WorkerPool::cancel_running(const Status& reason) {
+  std::vector<std::string> ids;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    for (const std::string& id : running_)
+      if (!id.empty()) ids.push_back(id);
+  }
+  for (const std::string& id : ids) (void)queue_.cancel(id, reason);
+}
+
+void WorkerPool::join() {
+  for (std::thread& t : threads_)
+    if (t.joinable()) t.join();
+  threads_.clear();
+}
+
+}  // namespace vpr::service

@@ -1,0 +1,81 @@
+// Worker threads: each owns a renderer (a GL context, created once) and, with
+// a GPU, one CUDA device (worker index modulo the GPU count); each claims a
+// job, runs the pipeline and publishes the job's events to the queue.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "pipeline/pipeline.h"
+#include "server/job_queue.h"
+#include "server/limits.h"
+#include "server/service_metrics.h"
+
+namespace vpr::service {
+
+// Values per chunk of a FloatChunk event: 1 MiB of floats.
+inline constexpr size_t kFloatsPerChunk = kMaxChunkBytes / sizeof(float);
+
+// What one worker runs a job with.
+struct WorkerContext {
+  std::string name;           // "host:pid/worker-0"
+  std::string device = "cpu";  // "cpu" or "cuda:0 <name>", for `started` events
+  Renderer* renderer = nullptr;
+  DevicePolicy device_policy = DevicePolicy::kCpu;
+  int cuda_device = 0;
+  ServerLimits limits;
+  ServiceMetrics* metrics = nullptr;  // may be null
+};
+
+// Runs one claimed job to its end: started, then decode, the pipeline, one
+// `stage` event per stage (after the pipeline returns: it has no per-stage
+// callback), the requested payloads in chunks, and completed / failed /
+// cancelled. Never throws; every failure becomes the job's `failed` event.
+void run_job(JobQueue& queue, ClaimedJob job, const WorkerContext& ctx);
+
+struct WorkerPoolOptions {
+  int workers = 1;
+  DevicePolicy device = DevicePolicy::kAuto;
+  RendererKind renderer = RendererKind::kAuto;
+  int cuda_devices = 0;  // GPUs to spread workers over (0: none)
+  ServerLimits limits;
+};
+
+class WorkerPool {
+ public:
+  WorkerPool(JobQueue& queue, WorkerPoolOptions options, ServiceMetrics* metrics);
+  ~WorkerPool();
+
+  // Starts the threads and waits until each has created its renderer (or
+  // failed to). Returns how many are live; *why says why others are not.
+  size_t start(std::string* why);
+  size_t live() const { return live_; }
+  size_t busy() const { return busy_; }
+  // Waits until no worker runs a job, up to `timeout`; true when idle.
+  bool wait_idle(std::chrono::milliseconds timeout);
+  // Asks every running job to stop at its next stage boundary.
+  void cancel_running(const Status& reason);
+  // Joins the threads (call JobQueue::close first).
+  void join();
+
+ private:
+  void worker_main(int index);
+
+  JobQueue& queue_;
+  WorkerPoolOptions options_;
+  ServiceMetrics* metrics_;
+  std::vector<std::thread> threads_;
+  std::atomic<size_t> live_{0}, busy_{0};
+  std::mutex mu_;
+  std::condition_variable changed_;
+  size_t ready_ = 0;
+  std::vector<std::string> failures_;
+  std::vector<std::string> running_;  // job id per worker ("" when idle)
+};
+
+}  // namespace vpr::service

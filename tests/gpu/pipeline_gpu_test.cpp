@@ -1,0 +1,127 @@
+// The whole pipeline on the GPU against its CPU twin, the fallback when a
+// stage fails on the GPU, and several jobs sharing one GPU (label gpu: run on
+// the device machine by scripts/device-run.sh; skipped where no GPU answers).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "eval/hausdorff.h"
+#include "io/mesh_io.h"
+#include "pipeline/pipeline.h"
+
+namespace vpr {
+namespace {
+
+constexpr uint32_t kTarget = 3000;
+const char* kModel = "../shared/models/horse.ply";
+
+class PipelineGpu : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    auto device = JobDevice::select(DevicePolicy::kCuda, 0, nullptr);
+    if (!device.ok()) GTEST_SKIP() << device.status().to_string();
+    auto mesh = read_mesh(kModel);
+    ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+    input_ = std::move(mesh).value();
+  }
+
+  StatusOr<PipelineResult> run(DevicePolicy policy, DeviceBudget* budget = nullptr) {
+    PipelineOptions options;
+    options.target_vertices = kTarget;
+    options.device = policy;
+    options.device_budget = budget;
+    return run_pipeline(input_, options);
+  }
+
+  Mesh input_;
+};
+
+const char* kTwinStages[] = {"image_saliency", "unproject", "saliency_field", "sampling", "awlop"};
+
+const StageTiming* find_stage(const PipelineResult& r, const std::string& name) {
+  for (const StageTiming& t : r.stages)
+    if (t.name == name) return &t;
+  return nullptr;
+}
+
+TEST_F(PipelineGpu, EveryTwinRunsOnTheGpuAndAgreesWithTheCpu) {
+  auto gpu = run(DevicePolicy::kCuda);
+  ASSERT_TRUE(gpu.ok()) << gpu.status().to_string();
+  auto cpu = run(DevicePolicy::kCpu);
+  ASSERT_TRUE(cpu.ok()) << cpu.status().to_string();
+  EXPECT_EQ(gpu->device.rfind("cuda:0", 0), 0u) << gpu->device;
+  for (const char* name : kTwinStages) {
+    const StageTiming* t = find_stage(*gpu, name);
+    ASSERT_NE(t, nullptr) << name;
+    EXPECT_EQ(t->device, "cuda") << name << ": " << t->note;
+  }
+  // Identical feature pixels give identical saliency point counts.
+  EXPECT_EQ(gpu->saliency_points, cpu->saliency_points);
+  // Particles agree within 1e-4 of the diagonal (stage tests); the mesher may
+  // still connect nearly equal points differently, so compare the surfaces.
+  const double dv = std::abs(double(gpu->mesh.vertex_count()) - double(cpu->mesh.vertex_count()));
+  EXPECT_LE(dv, 0.005 * kTarget) << gpu->mesh.vertex_count() << " vs " << cpu->mesh.vertex_count();
+  ASSERT_EQ(gpu->input_importance.size(), cpu->input_importance.size());
+  // Same depths on both devices; beta^d may differ in the last bit (CUDA's pow).
+  size_t differ = 0;
+  for (size_t i = 0; i < gpu->input_importance.size(); ++i)
+    differ += std::abs(gpu->input_importance[i] - cpu->input_importance[i]) > 1e-6f;
+  EXPECT_EQ(differ, 0u) << "the saliency field differs on " << differ << " vertices";
+  HausdorffOptions ho;
+  ho.samples_per_mesh = 50'000;
+  auto h = hausdorff_distance(cpu->mesh, gpu->mesh, ho);
+  ASSERT_TRUE(h.ok()) << h.status().to_string();
+  EXPECT_LT(h->mean, 1e-4) << "GPU and CPU outputs differ by " << h->mean << " of the diagonal on average";
+}
+
+TEST_F(PipelineGpu, SameInputGivesIdenticalOutputOnTheGpu) {
+  auto a = run(DevicePolicy::kCuda);
+  auto b = run(DevicePolicy::kCuda);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->mesh.positions, b->mesh.positions);
+  EXPECT_EQ(a->mesh.indices, b->mesh.indices);
+}
+
+// A budget too small for any device buffer makes every GPU twin fail with
+// RESOURCE_EXHAUSTED: each stage reruns on the CPU, says so, and the job gives
+// exactly the CPU's result.
+TEST_F(PipelineGpu, AStageThatFailsOnTheGpuRerunsOnTheCpu) {
+  DeviceBudget tiny;
+  tiny.limit = 1024;
+  auto fallback = run(DevicePolicy::kCuda, &tiny);
+  ASSERT_TRUE(fallback.ok()) << fallback.status().to_string();
+  auto cpu = run(DevicePolicy::kCpu);
+  ASSERT_TRUE(cpu.ok());
+  for (const char* name : kTwinStages) {
+    const StageTiming* t = find_stage(*fallback, name);
+    ASSERT_NE(t, nullptr) << name;
+    EXPECT_EQ(t->device, "cpu") << name;
+    EXPECT_NE(t->note.find("RESOURCE_EXHAUSTED"), std::string::npos) << name << ": " << t->note;
+  }
+  EXPECT_EQ(fallback->mesh.positions, cpu->mesh.positions);
+  EXPECT_EQ(fallback->mesh.indices, cpu->mesh.indices);
+  EXPECT_EQ(tiny.used.load(), 0u) << "every device buffer must be released";
+}
+
+// Four jobs on one GPU at once, each on its own stream, give the same result
+// as one job alone.
+TEST_F(PipelineGpu, ConcurrentJobsOnOneGpuGiveTheSingleJobResult) {
+  auto alone = run(DevicePolicy::kCuda);
+  ASSERT_TRUE(alone.ok()) << alone.status().to_string();
+  std::vector<StatusOr<PipelineResult>> results(4, Status(StatusCode::kInternal, "not run"));
+  std::vector<std::thread> threads;
+  for (size_t i = 0; i < results.size(); ++i)
+    threads.emplace_back([&, i] { results[i] = run(DevicePolicy::kCuda); });
+  for (auto& t : threads) t.join();
+  for (auto& r : results) {
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    EXPECT_EQ(r->mesh.positions, alone->mesh.positions);
+    EXPECT_EQ(r->mesh.indices, alone->mesh.indices);
+  }
+}
+
+}  // namespace
+}  // namespace vpr

@@ -1,0 +1,286 @@
+// What the service tests share: the real vpremesh-server started on a free
+// loopback port (and always stopped), the real vpremesh client run as a
+// process, and uploads through the C++ stubs.
+#pragma once
+
+#include <fcntl.h>
+#include <grpcpp/grpcpp.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "io/mesh_io.h"
+#include "vpremesh/v1/remesh.grpc.pb.h"
+
+namespace vpr::testing {
+
+namespace v1 = ::vpremesh::v1;
+
+// Safety nets only: no test waits on a clock for its answer.
+inline constexpr std::chrono::seconds kStartupLimit{120};
+inline constexpr std::chrono::seconds kJobLimit{300};
+
+// `vpremesh-server --listen 127.0.0.1:0 FLAGS...`; the address comes from the
+// line "vpremesh-server listening on 127.0.0.1:PORT". The destructor kills
+// the server if it still runs, so a failing test never leaves one behind.
+class ServerProcess {
+ public:
+  explicit ServerProcess(const std::vector<std::string>& flags) {
+    int fds[2];
+    if (::pipe2(fds, O_CLOEXEC) != 0) return;
+    std::vector<std::string> args = {VPR_SERVER_PATH, "--listen", "127.0.0.1:0"};
+    args.insert(args.end(), flags.begin(), flags.end());
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      ::dup2(fds[1], 1);
+      ::dup2(fds[1], 2);
+      std::vector<char*> argv;
+      for (std::string& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+    ::close(fds[1]);
+    if (pid_ < 0) {
+      ::close(fds[0]);
+      return;
+    }
+    reader_ = std::thread([this, fd = fds[0]] {
+      char buf[4096];
+      ssize_t n;
+      while ((n = ::read(fd, buf, sizeof buf)) > 0) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        log_.append(buf, size_t(n));
+        find_address();
+        changed_.notify_all();
+      }
+      ::close(fd);
+      std::lock_guard<std::mutex> lock(mutex_);
+      eof_ = true;
+      changed_.notify_all();
+    });
+    std::unique_lock<std::mutex> lock(mutex_);
+    changed_.wait_for(lock, kStartupLimit, [this] { return !address_.empty() || eof_; });
+  }
+
+  ~ServerProcess() {
+    if (pid_ > 0 && !exited_) {
+      ::kill(pid_, SIGKILL);
+      int status;
+      ::waitpid(pid_, &status, 0);
+    }
+    if (reader_.joinable()) reader_.join();
+  }
+  ServerProcess(const ServerProcess&) = delete;
+  ServerProcess& operator=(const ServerProcess&) = delete;
+
+  bool started() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return !address_.empty();
+  }
+  std::string address() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return address_;
+  }
+  // Everything the server printed so far (for failure messages).
+  std::string log() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return log_;
+  }
+
+  // Sends SIGTERM and waits for the exit; returns the exit code, or -signal
+  // when a signal ended it (SIGKILL after the safety limit).
+  int terminate() {
+    if (pid_ <= 0 || exited_) return -1;
+    ::kill(pid_, SIGTERM);
+    int status = 0;
+    const auto give_up = std::chrono::steady_clock::now() + kJobLimit;
+    while (::waitpid(pid_, &status, WNOHANG) == 0) {
+      if (std::chrono::steady_clock::now() > give_up) {
+        ::kill(pid_, SIGKILL);
+        ::waitpid(pid_, &status, 0);
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    exited_ = true;
+    if (reader_.joinable()) reader_.join();
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+  }
+
+ private:
+  void find_address() {
+    if (!address_.empty()) return;
+    const std::string key = "listening on ";
+    const size_t at = log_.find(key);
+    if (at == std::string::npos) return;
+    const size_t end = log_.find_first_of(" \r\n", at + key.size());
+    if (end == std::string::npos) return;  // the line is not complete yet
+    address_ = log_.substr(at + key.size(), end - at - key.size());
+  }
+
+  pid_t pid_ = -1;
+  bool exited_ = false;
+  std::thread reader_;
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::string log_, address_;
+  bool eof_ = false;
+};
+
+struct CliRun {
+  int code = -1;
+  std::string out, err;
+};
+
+// Runs `vpremesh ARGS` (a shell command line), stdout and stderr apart.
+inline CliRun run_cli(const std::string& args) {
+  static std::atomic<int> counter{0};
+  const std::string err_path = (std::filesystem::temp_directory_path() /
+                                ("vpremesh_cli_err_" + std::to_string(::getpid()) + "_" + std::to_string(counter++)))
+                                   .string();
+  const std::string cmd = std::string(VPR_CLI_PATH) + " " + args + " 2>" + err_path;
+  CliRun r;
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  if (!pipe) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
+  const int status = ::pclose(pipe);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream err(err_path, std::ios::binary);
+  r.err.assign(std::istreambuf_iterator<char>(err), std::istreambuf_iterator<char>());
+  std::filesystem::remove(err_path);
+  return r;
+}
+
+inline std::unique_ptr<v1::RemeshService::Stub> make_stub(const std::string& address) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(8 << 20);
+  return v1::RemeshService::NewStub(grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args));
+}
+
+// A lossless, order-keeping Draco file (what `vpremesh submit` uploads).
+inline std::vector<uint8_t> lossless_draco(const Mesh& mesh) {
+  DracoOptions options;
+  options.position_bits = 0;
+  options.speed = 10;
+  auto bytes = encode_draco(mesh, nullptr, options);
+  return bytes.ok() ? std::move(*bytes) : std::vector<uint8_t>{};
+}
+
+inline void write_file(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+}
+
+inline v1::JobSpec make_spec(uint32_t target, uint64_t size_bytes) {
+  v1::JobSpec spec;
+  spec.set_target_vertices(target);
+  spec.set_mesh_size_bytes(size_bytes);
+  spec.set_return_mesh(true);
+  spec.set_return_saliency(true);
+  return spec;
+}
+
+// The spec, then the file in chunks of at most 1 MiB; false when the server
+// closed the stream early.
+template <class Writer>
+bool upload(Writer& writer, const v1::JobSpec& spec, const std::vector<uint8_t>& bytes) {
+  v1::RemeshRequest request;
+  *request.mutable_spec() = spec;
+  if (!writer.Write(request)) return false;
+  for (size_t offset = 0; offset < bytes.size(); offset += size_t(1) << 20) {
+    request.set_mesh_chunk(bytes.data() + offset, std::min(size_t(1) << 20, bytes.size() - offset));
+    if (!writer.Write(request)) return false;
+  }
+  return writer.WritesDone();
+}
+
+// One Remesh call, followed to its end.
+struct RemeshOutcome {
+  grpc::Status status;
+  std::vector<v1::JobEvent> events;
+  std::string job_id;
+  std::string result;  // the output Draco file
+  std::vector<float> saliency;
+  const v1::JobEvent* last() const { return events.empty() ? nullptr : &events.back(); }
+  bool completed() const { return last() && last()->has_completed(); }
+};
+
+// on_event (optional) sees every event as it arrives, e.g. to signal another thread.
+template <class OnEvent>
+RemeshOutcome remesh(v1::RemeshService::Stub& stub, const v1::JobSpec& spec, const std::vector<uint8_t>& bytes,
+                     OnEvent on_event, grpc::ClientContext* context = nullptr) {
+  grpc::ClientContext local;
+  if (!context) context = &local;
+  context->set_deadline(std::chrono::system_clock::now() + kJobLimit);
+  RemeshOutcome out;
+  auto stream = stub.Remesh(context);
+  upload(*stream, spec, bytes);
+  v1::JobEvent event;
+  while (stream->Read(&event)) {
+    if (out.job_id.empty()) out.job_id = event.job_id();
+    if (event.has_result()) out.result += event.result().data();
+    if (event.has_saliency())
+      out.saliency.insert(out.saliency.end(), event.saliency().values().begin(), event.saliency().values().end());
+    out.events.push_back(event);
+    on_event(event);
+  }
+  out.status = stream->Finish();
+  return out;
+}
+
+inline RemeshOutcome remesh(v1::RemeshService::Stub& stub, const v1::JobSpec& spec, const std::vector<uint8_t>& bytes) {
+  return remesh(stub, spec, bytes, [](const v1::JobEvent&) {});
+}
+
+// GetJob; state UNSPECIFIED when the call fails.
+inline v1::JobStatus get_job(v1::RemeshService::Stub& stub, const std::string& job_id) {
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  v1::JobRef ref;
+  ref.set_job_id(job_id);
+  v1::JobStatus status;
+  if (!stub.GetJob(&context, ref, &status).ok()) status.set_state(v1::JOB_STATE_UNSPECIFIED);
+  return status;
+}
+
+// Polls GetJob until `done(state)` holds (a state change, not a duration, is
+// what the test waits for); false after the safety limit.
+template <class Pred>
+bool wait_for_state(v1::RemeshService::Stub& stub, const std::string& job_id, Pred done) {
+  const auto give_up = std::chrono::steady_clock::now() + kJobLimit;
+  while (std::chrono::steady_clock::now() < give_up) {
+    if (done(get_job(stub, job_id).state())) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
+inline bool is_terminal(v1::JobState s) {
+  return s == v1::JOB_STATE_SUCCEEDED || s == v1::JOB_STATE_FAILED || s == v1::JOB_STATE_CANCELLED;
+}
+
+// Vertex positions sorted, so that two files of the same mesh compare equal
+// whatever order their encoders chose.
+inline std::vector<std::array<float, 3>> sorted_positions(const Mesh& mesh) {
+  std::vector<std::array<float, 3>> p(mesh.vertex_count());
+  for (size_t i = 0; i < p.size(); ++i) p[i] = {mesh.positions[3 * i], mesh.positions[3 * i + 1], mesh.positions[3 * i + 2]};
+  std::sort(p.begin(), p.end());
+  return p;
+}
+
+}  // namespace vpr::testing

@@ -1,0 +1,432 @@
+// The service end to end: the real vpremesh-server on a free loopback port,
+// driven by the real `vpremesh` client and by the C++ stubs. Every test starts
+// its own server (ServerProcess stops it, also when the test fails).
+#include <arpa/inet.h>
+#include <google/protobuf/descriptor.pb.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
+#include <future>
+#include <set>
+#include <nlohmann/json.hpp>
+
+#include "grpc/health/v1/health.grpc.pb.h"
+#include "grpc/reflection/v1alpha/reflection.grpc.pb.h"
+#include "service_harness.h"
+#include "test_meshes.h"
+
+namespace fs = std::filesystem;
+
+namespace vpr::testing {
+namespace {
+
+// A job that runs for seconds in stages of about a second each (14 views at
+// 1024 px): long enough to be caught running, short enough to cancel cheaply.
+const char* const kHeavyModel = "../shared/models/spot.obj";
+const char* const kHeavyFlags = "-n 2000 --views 14 --resolution 1024";
+
+v1::JobSpec heavy_spec(uint64_t size_bytes) {
+  v1::JobSpec spec = make_spec(2000, size_bytes);
+  spec.mutable_options()->set_views(14);
+  spec.mutable_options()->set_resolution(1024);
+  return spec;
+}
+
+class ServiceTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("vpremesh_service_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  // Starts a server; the test stops at once when it does not come up.
+  std::unique_ptr<ServerProcess> start(const std::vector<std::string>& flags = {}) {
+    auto server = std::make_unique<ServerProcess>(flags);
+    EXPECT_TRUE(server->started()) << server->log();
+    return server;
+  }
+
+  std::vector<uint8_t> heavy_upload() {
+    auto mesh = read_mesh(kHeavyModel);
+    EXPECT_TRUE(mesh.ok());
+    return lossless_draco(*mesh);
+  }
+
+  fs::path dir_;
+};
+
+#define START_SERVER(var, ...)           \
+  auto var = start(__VA_ARGS__);         \
+  ASSERT_TRUE(var->started()) << var->log()
+
+// `vpremesh submit` gives what `vpremesh local` gives with the same seed:
+// the same vertices at the same positions. status, watch and cancel then
+// answer for the finished job.
+TEST_F(ServiceTest, SubmitEqualsLocalAndJobCommandsAnswer) {
+  START_SERVER(server);
+  const std::string model = "../shared/models/spot.obj";
+  CliRun local = run_cli("local " + model + " -o " + path("local.drc") + " -n 800 --seed 7 --json");
+  ASSERT_EQ(local.code, 0) << local.err;
+  CliRun remote = run_cli("submit " + model + " -o " + path("remote.drc") + " -n 800 --seed 7 --json --server " +
+                          server->address() + " --field-out " + path("field.ply"));
+  ASSERT_EQ(remote.code, 0) << remote.err << "\n" << server->log();
+  EXPECT_EQ(remote.err, "");  // --json: no progress lines
+
+  const nlohmann::json lj = nlohmann::json::parse(local.out), rj = nlohmann::json::parse(remote.out);
+  EXPECT_EQ(rj["input"]["vertices"], 2930);
+  EXPECT_EQ(rj["output"]["vertices"], lj["output"]["vertices"]);
+  EXPECT_EQ(rj["output"]["faces"], lj["output"]["faces"]);
+  std::vector<std::string> stages;
+  for (const auto& s : rj["stages"]) stages.push_back(s["name"]);
+  for (const char* stage : {"read", "upload", "queue", "render", "image_saliency", "saliency_field", "awlop",
+                            "meshing", "write"})
+    EXPECT_NE(std::find(stages.begin(), stages.end(), stage), stages.end()) << stage << "\n" << remote.out;
+
+  auto a = read_mesh(path("local.drc")), b = read_mesh(path("remote.drc"));
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a->vertex_count(), b->vertex_count());
+  EXPECT_EQ(b->vertex_count(), size_t(rj["output"]["vertices"]));
+  const auto pa = sorted_positions(*a), pb = sorted_positions(*b);
+  size_t differing = 0;
+  for (size_t i = 0; i < pa.size(); ++i)
+    for (int k = 0; k < 3; ++k)
+      if (std::abs(pa[i][k] - pb[i][k]) > 1e-5f) ++differing;
+  EXPECT_EQ(differing, 0u);
+  auto saliency = read_saliency(path("remote.drc"));
+  ASSERT_TRUE(saliency.ok());
+  EXPECT_EQ(saliency->size(), b->vertex_count());
+  auto field = read_saliency(path("field.ply"));
+  ASSERT_TRUE(field.ok()) << field.status().to_string();
+  EXPECT_EQ(field->size(), b->vertex_count());
+
+  const std::string job = rj["job_id"];
+  const std::string at = " --server " + server->address();
+  CliRun status = run_cli("status " + job + at + " --json");
+  ASSERT_EQ(status.code, 0) << status.err;
+  const nlohmann::json sj = nlohmann::json::parse(status.out);
+  EXPECT_EQ(sj["state"], "JOB_STATE_SUCCEEDED");
+  EXPECT_EQ(sj["summary"]["output_vertices"], rj["output"]["vertices"]);
+
+  // watch replays the whole job; off a terminal, each stage is a plain line.
+  CliRun watch = run_cli("watch " + job + at + " -o " + path("watched.ply"));
+  ASSERT_EQ(watch.code, 0) << watch.err;
+  EXPECT_EQ(watch.err.find('\r'), std::string::npos);
+  EXPECT_NE(watch.err.find("job " + job + ": stage 1 "), std::string::npos) << watch.err;
+  EXPECT_NE(watch.err.find("completed"), std::string::npos) << watch.err;
+  EXPECT_NE(watch.out.find("queue "), std::string::npos) << watch.out;
+  EXPECT_NE(watch.out.find("meshing"), std::string::npos) << watch.out;
+  auto watched = read_mesh(path("watched.ply"));
+  ASSERT_TRUE(watched.ok());
+  EXPECT_EQ(watched->vertex_count(), b->vertex_count());
+
+  // Cancelling a finished job changes nothing.
+  CliRun cancel = run_cli("cancel " + job + at);
+  EXPECT_EQ(cancel.code, 0) << cancel.err;
+  EXPECT_NE(cancel.out.find("SUCCEEDED"), std::string::npos) << cancel.out;
+
+  CliRun unknown = run_cli("status no-such-job" + at);
+  EXPECT_EQ(unknown.code, 7) << unknown.err;
+  EXPECT_NE(unknown.err.find("vpremesh: NOT_FOUND: "), std::string::npos) << unknown.err;
+}
+
+// Sixteen jobs at once, each with its own target: every one completes, with
+// its own result (no job gets another's mesh), and the first equals a local
+// run on the same upload.
+TEST_F(ServiceTest, SixteenConcurrentJobsAllComplete) {
+  START_SERVER(server, {"--workers", "2", "--max-jobs-per-client", "16"});
+  const std::vector<uint8_t> sphere = lossless_draco(icosphere(3));
+  ASSERT_FALSE(sphere.empty());
+  write_file(path("sphere.drc"), sphere);
+  auto stub = make_stub(server->address());
+  constexpr int kJobs = 16;
+  auto target = [](int i) { return uint32_t(300 + 20 * i); };
+  std::vector<std::future<RemeshOutcome>> jobs;
+  for (int i = 0; i < kJobs; ++i)
+    jobs.push_back(std::async(std::launch::async, [&, i] { return remesh(*stub, make_spec(target(i), sphere.size()), sphere); }));
+  std::vector<RemeshOutcome> results;
+  for (auto& j : jobs) results.push_back(j.get());
+
+  std::set<std::string> ids;
+  for (int i = 0; i < kJobs; ++i) {
+    const RemeshOutcome& r = results[i];
+    ASSERT_TRUE(r.status.ok()) << i << ": " << r.status.error_message() << "\n" << server->log();
+    ASSERT_TRUE(r.completed()) << i;
+    ids.insert(r.job_id);
+    auto mesh = parse_mesh(reinterpret_cast<const uint8_t*>(r.result.data()), r.result.size(), MeshFormat::kDraco);
+    ASSERT_TRUE(mesh.ok()) << i << ": " << mesh.status().to_string();
+    EXPECT_EQ(mesh->vertex_count(), r.last()->completed().output_vertices()) << i;
+    EXPECT_EQ(r.saliency.size(), mesh->vertex_count()) << i;
+    // Within 2% of its own target, which is 20 vertices from the next one's.
+    EXPECT_LE(std::abs(double(mesh->vertex_count()) - target(i)), 0.02 * target(i)) << i;
+    EXPECT_EQ(r.last()->completed().input_vertices(), 642u) << i;
+  }
+  EXPECT_EQ(ids.size(), size_t(kJobs));
+
+  CliRun local = run_cli("local " + path("sphere.drc") + " -o " + path("local.drc") + " -n 300 --json");
+  ASSERT_EQ(local.code, 0) << local.err;
+  auto a = read_mesh(path("local.drc"));
+  auto b = parse_mesh(reinterpret_cast<const uint8_t*>(results[0].result.data()), results[0].result.size(),
+                      MeshFormat::kDraco);
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a->vertex_count(), b->vertex_count());
+  const auto pa = sorted_positions(*a), pb = sorted_positions(*b);
+  for (size_t i = 0; i < pa.size(); ++i)
+    for (int k = 0; k < 3; ++k) ASSERT_NEAR(pa[i][k], pb[i][k], 1e-5f) << i;
+}
+
+// `vpremesh cancel` stops a running job; `vpremesh watch` on it ends with
+// CANCELLED and exit code 6.
+TEST_F(ServiceTest, CancelWhileRunning) {
+  START_SERVER(server, {"--workers", "1"});
+  const std::string at = " --server " + server->address();
+  CliRun submit = run_cli(std::string("submit ") + kHeavyModel + " " + kHeavyFlags + " --no-wait" + at);
+  ASSERT_EQ(submit.code, 0) << submit.err;
+  const std::string job = submit.out.substr(0, submit.out.find('\n'));
+  ASSERT_FALSE(job.empty());
+  auto stub = make_stub(server->address());
+  ASSERT_TRUE(wait_for_state(*stub, job, [](v1::JobState s) { return s != v1::JOB_STATE_QUEUED; }));
+  ASSERT_EQ(get_job(*stub, job).state(), v1::JOB_STATE_RUNNING);
+
+  auto watch = std::async(std::launch::async, [&] { return run_cli("watch " + job + at + " -o " + path("w.ply")); });
+  CliRun cancel = run_cli("cancel " + job + at);
+  EXPECT_EQ(cancel.code, 0) << cancel.err;
+  const CliRun watched = watch.get();
+  EXPECT_EQ(watched.code, 6) << watched.out << watched.err;
+  EXPECT_NE(watched.err.find("vpremesh: CANCELLED: "), std::string::npos) << watched.err;
+  EXPECT_FALSE(fs::exists(path("w.ply")));
+
+  ASSERT_TRUE(wait_for_state(*stub, job, is_terminal));
+  EXPECT_EQ(get_job(*stub, job).state(), v1::JOB_STATE_CANCELLED);
+  CliRun status = run_cli("status " + job + at);
+  EXPECT_EQ(status.code, 0);
+  EXPECT_NE(status.out.find("CANCELLED"), std::string::npos) << status.out;
+}
+
+// A deadline shorter than the job: DEADLINE_EXCEEDED (exit 8), the job is
+// stopped, and the server goes on serving.
+TEST_F(ServiceTest, DeadlineShorterThanTheJob) {
+  START_SERVER(server, {"--workers", "1"});
+  const std::string at = " --server " + server->address();
+  CliRun late = run_cli(std::string("submit ") + kHeavyModel + " -o " + path("late.ply") + " " + kHeavyFlags +
+                        " --deadline 1" + at);
+  EXPECT_EQ(late.code, 8) << late.out << late.err;
+  EXPECT_NE(late.err.find("vpremesh: DEADLINE_EXCEEDED: "), std::string::npos) << late.err;
+  EXPECT_FALSE(fs::exists(path("late.ply")));
+
+  // The job id is on the progress lines ("job ID: queued, ...").
+  const size_t at_job = late.err.find("job ");
+  ASSERT_NE(at_job, std::string::npos) << late.err;
+  const std::string job = late.err.substr(at_job + 4, late.err.find(':', at_job) - at_job - 4);
+  auto stub = make_stub(server->address());
+  ASSERT_TRUE(wait_for_state(*stub, job, is_terminal));
+  EXPECT_NE(get_job(*stub, job).state(), v1::JOB_STATE_SUCCEEDED);
+
+  CliRun next = run_cli("submit ../shared/models/suzanne.obj -o " + path("next.ply") + " -n 300" + at);
+  EXPECT_EQ(next.code, 0) << next.err << "\n" << server->log();
+  auto mesh = read_mesh(path("next.ply"));
+  ASSERT_TRUE(mesh.ok());
+  EXPECT_NEAR(double(mesh->vertex_count()), 300.0, 6.0);
+}
+
+// Uploads over --max-upload-mib: refused before the bytes are sent when the
+// size is declared (the CLI), and while they arrive when it is not.
+TEST_F(ServiceTest, UploadOverTheLimitIsResourceExhausted) {
+  START_SERVER(server, {"--max-upload-mib", "1"});
+  const std::vector<uint8_t> big = lossless_draco(icosphere(7));  // 163,842 vertices, about 2 MiB
+  ASSERT_GT(big.size(), size_t(1) << 20);
+  write_file(path("big.drc"), big);
+  CliRun r = run_cli("submit " + path("big.drc") + " -o " + path("o.ply") + " -n 1000 --server " + server->address());
+  EXPECT_EQ(r.code, 4) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_EQ(r.err.rfind("vpremesh: RESOURCE_EXHAUSTED: ", 0), 0u) << r.err;
+  EXPECT_NE(r.err.find("1.0 MiB"), std::string::npos) << r.err;
+
+  auto stub = make_stub(server->address());
+  RemeshOutcome undeclared = remesh(*stub, make_spec(1000, 0), big);
+  EXPECT_EQ(undeclared.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << undeclared.status.error_message();
+  EXPECT_NE(undeclared.status.error_message().find("1.0 MiB"), std::string::npos) << undeclared.status.error_message();
+
+  // The server is still there.
+  RemeshOutcome small = remesh(*stub, make_spec(300, 0), lossless_draco(icosphere(3)));
+  EXPECT_TRUE(small.status.ok() && small.completed()) << small.status.error_message();
+}
+
+// Bytes that start like Draco but are not: INVALID_ARGUMENT (exit 3).
+TEST_F(ServiceTest, CorruptDracoIsInvalidArgument) {
+  START_SERVER(server);
+  const std::string corrupt = std::string("DRACO\x02\x02\x01\x01\x00\x00garbage", 21);
+  write_file(path("corrupt.drc"), std::vector<uint8_t>(corrupt.begin(), corrupt.end()));
+  CliRun r = run_cli("submit " + path("corrupt.drc") + " -o " + path("o.ply") + " -n 500 --server " +
+                     server->address());
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_NE(r.err.find("vpremesh: INVALID_ARGUMENT: "), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("o.ply")));
+
+  auto stub = make_stub(server->address());
+  const std::string text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  RemeshOutcome obj = remesh(*stub, make_spec(500, text.size()), std::vector<uint8_t>(text.begin(), text.end()));
+  EXPECT_EQ(obj.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << obj.status.error_message();
+}
+
+// --max-queue 1 --workers 1: one job runs, one waits, the next is refused.
+TEST_F(ServiceTest, FullQueueIsResourceExhausted) {
+  START_SERVER(server, {"--max-queue", "1", "--workers", "1", "--max-jobs-per-client", "8"});
+  const std::string at = " --server " + server->address();
+  auto stub = make_stub(server->address());
+  CliRun first = run_cli(std::string("submit ") + kHeavyModel + " " + kHeavyFlags + " --no-wait" + at);
+  ASSERT_EQ(first.code, 0) << first.err;
+  const std::string running = first.out.substr(0, first.out.find('\n'));
+  ASSERT_TRUE(wait_for_state(*stub, running, [](v1::JobState s) { return s != v1::JOB_STATE_QUEUED; }));
+  CliRun second = run_cli(std::string("submit ") + kHeavyModel + " " + kHeavyFlags + " --no-wait --json" + at);
+  ASSERT_EQ(second.code, 0) << second.err;
+  const std::string waiting = nlohmann::json::parse(second.out)["job_id"];
+  EXPECT_EQ(get_job(*stub, waiting).state(), v1::JOB_STATE_QUEUED);
+
+  CliRun third = run_cli(std::string("submit ") + kHeavyModel + " " + kHeavyFlags + " --no-wait" + at);
+  EXPECT_EQ(third.code, 4) << third.out << third.err;
+  EXPECT_EQ(third.err.rfind("vpremesh: RESOURCE_EXHAUSTED: ", 0), 0u) << third.err;
+  EXPECT_NE(third.err.find("--max-queue"), std::string::npos) << third.err;
+
+  for (const std::string& job : {waiting, running}) EXPECT_EQ(run_cli("cancel " + job + at).code, 0);
+}
+
+// SIGTERM while a job runs and two wait: the running one finishes, the
+// waiting ones fail UNAVAILABLE, health turns away from SERVING, and the
+// server exits 0.
+TEST_F(ServiceTest, SigtermDrains) {
+  START_SERVER(server, {"--workers", "1", "--max-jobs-per-client", "8"});
+  auto stub = make_stub(server->address());
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  auto health = grpc::health::v1::Health::NewStub(channel);
+  auto check = [&](grpc::health::v1::HealthCheckResponse* response) {
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    return health->Check(&context, grpc::health::v1::HealthCheckRequest(), response);
+  };
+  grpc::health::v1::HealthCheckResponse response;
+  ASSERT_TRUE(check(&response).ok());
+  EXPECT_EQ(response.status(), grpc::health::v1::HealthCheckResponse::SERVING);
+
+  // A medium job (about 2 s at 512 px) that is running, and two behind it.
+  auto spot = read_mesh("../shared/models/spot.obj");
+  ASSERT_TRUE(spot.ok());
+  const std::vector<uint8_t> upload = lossless_draco(*spot);
+  std::promise<void> started, queued1, queued2;
+  auto signal_on = [](std::promise<void>& p, bool (v1::JobEvent::*has)() const) {
+    return [&p, has, done = std::make_shared<bool>(false)](const v1::JobEvent& e) {
+      if (!*done && (e.*has)()) {
+        *done = true;
+        p.set_value();
+      }
+    };
+  };
+  auto running = std::async(std::launch::async, [&] {
+    return remesh(*stub, make_spec(1500, upload.size()), upload, signal_on(started, &v1::JobEvent::has_started));
+  });
+  ASSERT_EQ(started.get_future().wait_for(kJobLimit), std::future_status::ready);
+  auto waiting1 = std::async(std::launch::async, [&] {
+    return remesh(*stub, make_spec(1500, upload.size()), upload, signal_on(queued1, &v1::JobEvent::has_queued));
+  });
+  auto waiting2 = std::async(std::launch::async, [&] {
+    return remesh(*stub, make_spec(1500, upload.size()), upload, signal_on(queued2, &v1::JobEvent::has_queued));
+  });
+  ASSERT_EQ(queued1.get_future().wait_for(kJobLimit), std::future_status::ready);
+  ASSERT_EQ(queued2.get_future().wait_for(kJobLimit), std::future_status::ready);
+
+  auto exit_code = std::async(std::launch::async, [&] { return server->terminate(); });
+  // Draining: health answers NOT_SERVING while the running job finishes, or
+  // the server already refuses new calls.
+  const auto give_up = std::chrono::steady_clock::now() + kJobLimit;
+  grpc::Status health_status;
+  do {
+    health_status = check(&response);
+  } while (health_status.ok() && response.status() == grpc::health::v1::HealthCheckResponse::SERVING &&
+           std::chrono::steady_clock::now() < give_up);
+  if (health_status.ok())
+    EXPECT_EQ(response.status(), grpc::health::v1::HealthCheckResponse::NOT_SERVING);
+  else
+    EXPECT_EQ(health_status.error_code(), grpc::StatusCode::UNAVAILABLE) << health_status.error_message();
+
+  const RemeshOutcome done = running.get();
+  EXPECT_TRUE(done.status.ok()) << done.status.error_message();
+  EXPECT_TRUE(done.completed());
+  EXPECT_FALSE(done.result.empty());
+  for (auto* f : {&waiting1, &waiting2}) {
+    const RemeshOutcome r = f->get();
+    const bool failed_event = r.last() && r.last()->has_failed() &&
+                              r.last()->failed().code() == int(grpc::StatusCode::UNAVAILABLE);
+    EXPECT_TRUE(failed_event || r.status.error_code() == grpc::StatusCode::UNAVAILABLE)
+        << r.status.error_code() << " " << r.status.error_message();
+    EXPECT_FALSE(r.completed());
+  }
+  EXPECT_EQ(exit_code.get(), 0) << server->log();
+}
+
+// Health answers SERVING; reflection lists the service and serves its
+// descriptor; a client with no server gets UNAVAILABLE (exit 5).
+TEST_F(ServiceTest, HealthReflectionAndUnreachableServer) {
+  START_SERVER(server);
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  {
+    auto health = grpc::health::v1::Health::NewStub(channel);
+    grpc::ClientContext context;
+    grpc::health::v1::HealthCheckRequest request;
+    grpc::health::v1::HealthCheckResponse response;
+    ASSERT_TRUE(health->Check(&context, request, &response).ok());
+    EXPECT_EQ(response.status(), grpc::health::v1::HealthCheckResponse::SERVING);
+  }
+  namespace refl = grpc::reflection::v1alpha;
+  auto reflection = refl::ServerReflection::NewStub(channel);
+  grpc::ClientContext context;
+  auto stream = reflection->ServerReflectionInfo(&context);
+  refl::ServerReflectionRequest request;
+  request.set_list_services("");
+  ASSERT_TRUE(stream->Write(request));
+  refl::ServerReflectionResponse response;
+  ASSERT_TRUE(stream->Read(&response));
+  std::set<std::string> services;
+  for (const auto& s : response.list_services_response().service()) services.insert(s.name());
+  EXPECT_TRUE(services.count("vpremesh.v1.RemeshService")) << response.DebugString();
+  EXPECT_TRUE(services.count("grpc.health.v1.Health")) << response.DebugString();
+
+  request.set_file_containing_symbol("vpremesh.v1.RemeshService");
+  ASSERT_TRUE(stream->Write(request));
+  ASSERT_TRUE(stream->Read(&response));
+  ASSERT_GT(response.file_descriptor_response().file_descriptor_proto_size(), 0) << response.DebugString();
+  google::protobuf::FileDescriptorProto file;
+  ASSERT_TRUE(file.ParseFromString(response.file_descriptor_response().file_descriptor_proto(0)));
+  EXPECT_EQ(file.package(), "vpremesh.v1");
+  std::set<std::string> methods;
+  for (const auto& service : file.service())
+    if (service.name() == "RemeshService")
+      for (const auto& m : service.method()) methods.insert(m.name());
+  EXPECT_EQ(methods, (std::set<std::string>{"Remesh", "Submit", "Watch", "GetJob", "CancelJob"}));
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+
+  // A port nothing listens on: bound, then closed.
+  std::string closed;
+  {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    socklen_t len = sizeof addr;
+    ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+    closed = "127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
+    ::close(fd);
+  }
+  CliRun r = run_cli("status some-job --server " + closed);
+  EXPECT_EQ(r.code, 5) << r.err;
+  EXPECT_EQ(r.err.rfind("vpremesh: UNAVAILABLE: cannot reach the server at " + closed, 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+}  // namespace
+}  // namespace vpr::testing
