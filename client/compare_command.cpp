@@ -67,10 +67,20 @@ std::string fixed(double v, int digits) {
   return buf;
 }
 
-const char* kHeader[] = {"method",          "time ms",         "vertices",         "faces",
-                         "SSIM mean",       "SSIM worst",      "line SSIM mean",   "line SSIM worst",
-                         "Hausdorff max %", "Hausdorff mean %", "angles < 30° %", "min angle °",
-                         "non-manifold edges", "note"};
+const char* kHeader[] = {"method",
+                         "time ms",
+                         "vertices",
+                         "faces",
+                         "SSIM mean",
+                         "SSIM worst",
+                         "line SSIM mean",
+                         "line SSIM worst",
+                         "Hausdorff max %",
+                         "Hausdorff mean %",
+                         "angles < 30° %",
+                         "min angle °",
+                         "non-manifold edges",
+                         "note"};
 
 std::vector<std::string> cells(const Row& r) {
   if (!r.error.empty()) {
@@ -258,9 +268,9 @@ int run_compare(const CompareArgs& a) {
     std::filesystem::create_directories(a.out_dir, ec);
     if (ec) return fail("", internal_error("cannot create " + a.out_dir + ": " + ec.message()));
     const std::string dir = a.out_dir + "/";
-    for (const Status& s : {write_text(dir + "table.md", table), write_text(dir + "table.csv", csv(rows)),
-                            write_sheet(dir + "contact_sheet.png", *input, ours->input_importance, rows,
-                                        renderer->get(), a.tile)})
+    for (const Status& s :
+         {write_text(dir + "table.md", table), write_text(dir + "table.csv", csv(rows)),
+          write_sheet(dir + "contact_sheet.png", *input, ours->input_importance, rows, renderer->get(), a.tile)})
       if (!s.ok()) return fail("", s);
   }
   if (a.json) {

@@ -1,9 +1,8 @@
 #include "contact_sheet.h"
 
-#include <flann/flann.hpp>
-
 #include <algorithm>
 #include <cmath>
+#include <flann/flann.hpp>
 
 #include "io/mesh_io.h"
 #include "io/png_io.h"
@@ -13,7 +12,8 @@ namespace vpr::cli {
 
 RgbImage gray_to_rgb(const GrayImage& gray) {
   RgbImage out{gray.width, gray.height, std::vector<uint8_t>(3 * gray.pixels.size())};
-  for (size_t i = 0; i < gray.pixels.size(); ++i) out.rgb[3 * i] = out.rgb[3 * i + 1] = out.rgb[3 * i + 2] = gray.pixels[i];
+  for (size_t i = 0; i < gray.pixels.size(); ++i)
+    out.rgb[3 * i] = out.rgb[3 * i + 1] = out.rgb[3 * i + 2] = gray.pixels[i];
   return out;
 }
 

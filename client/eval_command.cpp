@@ -29,13 +29,10 @@ struct EvalArgs {
 nlohmann::json visual_json(const VisualSimilarity& v) {
   nlohmann::json per_view = nlohmann::json::array();
   for (const auto& p : v.per_view) per_view.push_back({{"view", p.view}, {"ssim", p.ssim}, {"line_ssim", p.line_ssim}});
-  return {{"ssim_mean", v.ssim_mean},
-          {"ssim_worst", v.ssim_worst},
-          {"ssim_worst_view", v.ssim_worst_view},
-          {"line_ssim_mean", v.line_mean},
-          {"line_ssim_worst", v.line_worst},
-          {"line_ssim_worst_view", v.line_worst_view},
-          {"per_view", per_view}};
+  return {
+      {"ssim_mean", v.ssim_mean},      {"ssim_worst", v.ssim_worst},      {"ssim_worst_view", v.ssim_worst_view},
+      {"line_ssim_mean", v.line_mean}, {"line_ssim_worst", v.line_worst}, {"line_ssim_worst_view", v.line_worst_view},
+      {"per_view", per_view}};
 }
 
 nlohmann::json quality_json(const MeshQuality& q) {
@@ -132,8 +129,7 @@ Command add_eval_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("!--no-visual", args->visual, "Skip the rendered visual similarity (SSIM)");
   cmd->add_option("--views", args->visual_options.views, "SSIM views: 6 or 14")->capture_default_str();
-  cmd->add_option("--resolution", args->visual_options.resolution, "SSIM image size in pixels")
-      ->capture_default_str();
+  cmd->add_option("--resolution", args->visual_options.resolution, "SSIM image size in pixels")->capture_default_str();
   cmd->add_option("--renderer", args->renderer, "auto, egl or osmesa")->capture_default_str();
   return [args]() { return run_eval(*args); };
 }

@@ -73,6 +73,17 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
                                                   : ctx.device_policy;
   po.cuda_device = ctx.cuda_device;
   po.keep_going = [&]() { return !stopped(); };
+  // Stage events go out live, as each stage ends.
+  po.on_stage = [&](const StageTiming& t) {
+    v1::JobEvent e;
+    v1::Stage* st = e.mutable_stage();
+    st->set_name(t.name);
+    st->set_ms(t.ms);
+    st->set_device(t.device);
+    st->set_note(t.note);
+    queue.publish(id, std::move(e));
+    if (ctx.metrics) ctx.metrics->stage_seconds(t.name).observe(t.ms / 1000.0);
+  };
 
   if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
   v1::Completed summary;
@@ -90,16 +101,6 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
     auto run = run_pipeline(*mesh, po);
     if (!run.ok()) return queue.publish(id, end_event(queue, id, run.status()));
     result = std::move(run).value();
-  }
-  for (const StageTiming& t : result.stages) {
-    v1::JobEvent e;
-    v1::Stage* st = e.mutable_stage();
-    st->set_name(t.name);
-    st->set_ms(t.ms);
-    st->set_device(t.device);
-    st->set_note(t.note);
-    queue.publish(id, std::move(e));
-    if (ctx.metrics) ctx.metrics->stage_seconds(t.name).observe(t.ms / 1000.0);
   }
   if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
 

@@ -32,10 +32,10 @@ struct WorkerContext {
   ServiceMetrics* metrics = nullptr;  // may be null
 };
 
-// Runs one claimed job to its end: started, then decode, the pipeline, one
-// `stage` event per stage (after the pipeline returns: it has no per-stage
-// callback), the requested payloads in chunks, and completed / failed /
-// cancelled. Never throws; every failure becomes the job's `failed` event.
+// Runs one claimed job to its end: started, then decode, the pipeline with a
+// `stage` event as each stage ends (PipelineOptions::on_stage), the requested
+// payloads in chunks, and completed / failed / cancelled. Never throws; every
+// failure becomes the job's `failed` event.
 void run_job(JobQueue& queue, ClaimedJob job, const WorkerContext& ctx);
 
 struct WorkerPoolOptions {

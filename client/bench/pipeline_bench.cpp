@@ -1,19 +1,32 @@
-// Pipeline benchmark (a program, not a test): per-stage wall times of the CPU
-// pipeline on the shared models, and OpenMesh's quadric decimater on the same
-// input to the same vertex count as the peer a user would pick instead.
-// Prints a Markdown table.
-//   vpremesh-bench [--threads N] [--repeat R] MODEL:TARGET ...
+// Pipeline benchmark (a program, not a test; docs/performance.md is made with
+// it). For each MODEL:TARGET, in one warm process on one machine:
+//   1. per-stage wall times of our pipeline on each device asked for, the
+//      service's path included: Draco decode of the upload, the pipeline,
+//      Draco encode of the result with its saliency attribute;
+//   2. the peers a user would pick instead on the same input to the same
+//      vertex count (OpenMesh QEM, meshoptimizer, CGAL isotropic remeshing),
+//      and their time over ours;
+//   3. with --concurrency C: throughput of C jobs at once against one at a time.
+// MODEL may end in @1M (or @<N>M): the model midpoint-subdivided to at least
+// N million triangles. Prints Markdown tables; progress goes to stderr.
+//   vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N]
+//                  [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...
 #include <tbb/global_control.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <map>
+#include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "io/mesh_io.h"
 #include "peers/peers.h"
 #include "pipeline/pipeline.h"
+#include "subdivide.h"
 
 namespace {
 
@@ -22,76 +35,241 @@ double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
 
+const char* kStages[] = {"views",          "render",   "image_saliency", "unproject",
+                         "saliency_field", "sampling", "awlop",          "meshing"};
+
+struct Args {
+  std::vector<vpr::DevicePolicy> devices{vpr::DevicePolicy::kCpu};
+  int repeat = 3, threads = 0, concurrency = 0, jobs = 0;
+  std::string peers = "all";
+  std::vector<std::pair<std::string, uint32_t>> inputs;
+};
+
+struct Input {
+  std::string name;
+  vpr::Mesh mesh;
+  std::vector<uint8_t> draco;  // the upload the service would receive
+  uint32_t target = 0;
+};
+
+// One job as the service runs it: decode, pipeline, encode.
+struct JobTimes {
+  double decode = 0, encode = 0, total = 0;
+  std::map<std::string, double> stage;
+  std::string device_note;
+  size_t out_vertices = 0;
+};
+
+vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::Renderer* renderer) {
+  JobTimes t;
+  const auto start = Clock::now();
+  auto mesh = vpr::parse_mesh(in.draco.data(), in.draco.size(), vpr::MeshFormat::kDraco);
+  if (!mesh.ok()) return mesh.status();
+  t.decode = ms_since(start);
+  vpr::PipelineOptions options;
+  options.target_vertices = in.target;
+  options.device = device;
+  options.shared_renderer = renderer;
+  auto result = vpr::run_pipeline(*mesh, options);
+  if (!result.ok()) return result.status();
+  const auto encode_start = Clock::now();
+  auto encoded = vpr::encode_draco(result->mesh, result->saliency.data(), {});
+  if (!encoded.ok()) return encoded.status();
+  t.encode = ms_since(encode_start);
+  t.total = ms_since(start);
+  for (const auto& s : result->stages) {
+    t.stage[s.name] += s.ms;
+    if (!s.note.empty()) t.device_note += s.name + ": " + s.note + "; ";
+  }
+  t.out_vertices = result->mesh.vertex_count();
+  return t;
+}
+
+const char* device_label(vpr::DevicePolicy d) {
+  return d == vpr::DevicePolicy::kCuda ? "cuda" : "cpu";
+}
+
+int parse_args(int argc, char** argv, Args* a) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string s = argv[i];
+    auto next = [&]() -> std::string { return i + 1 < argc ? argv[++i] : ""; };
+    if (s == "--device") {
+      const std::string d = next();
+      if (d == "cpu") a->devices = {vpr::DevicePolicy::kCpu};
+      else if (d == "cuda") a->devices = {vpr::DevicePolicy::kCuda};
+      else if (d == "both") a->devices = {vpr::DevicePolicy::kCpu, vpr::DevicePolicy::kCuda};
+      else return 2;
+    } else if (s == "--repeat") {
+      a->repeat = std::max(1, std::stoi(next()));
+    } else if (s == "--threads") {
+      a->threads = std::stoi(next());
+    } else if (s == "--peers") {
+      a->peers = next();
+    } else if (s == "--concurrency") {
+      a->concurrency = std::stoi(next());
+    } else if (s == "--jobs") {
+      a->jobs = std::stoi(next());
+    } else {
+      const size_t colon = s.rfind(':');
+      if (colon == std::string::npos) return 2;
+      a->inputs.emplace_back(s.substr(0, colon), uint32_t(std::stoul(s.substr(colon + 1))));
+    }
+  }
+  return a->inputs.empty() ? 2 : 0;
+}
+
+vpr::StatusOr<Input> load_input(const std::string& spec, uint32_t target) {
+  Input in;
+  in.target = target;
+  std::string path = spec;
+  size_t million = 0;
+  if (const size_t at = spec.rfind('@'); at != std::string::npos) {
+    path = spec.substr(0, at);
+    million = std::stoul(spec.substr(at + 1));  // "1M" -> 1
+  }
+  auto mesh = vpr::read_mesh(path);
+  if (!mesh.ok()) return mesh.status();
+  in.mesh = std::move(mesh).value();
+  in.name = path.substr(path.rfind('/') + 1);
+  if (million > 0) {
+    in.mesh = vpr::bench::subdivide_to(std::move(in.mesh), million * 1'000'000);
+    in.name += " subdivided";
+  }
+  vpr::DracoOptions lossless;
+  lossless.position_bits = 0;  // the upload keeps the input exactly
+  lossless.speed = 10;
+  auto draco = vpr::encode_draco(in.mesh, nullptr, lossless);
+  if (!draco.ok()) return draco.status();
+  in.draco = std::move(draco).value();
+  return in;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  int threads = 0, repeat = 1;
-  std::vector<std::pair<std::string, uint32_t>> jobs;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--threads" && i + 1 < argc) {
-      threads = std::stoi(argv[++i]);
-    } else if (a == "--repeat" && i + 1 < argc) {
-      repeat = std::stoi(argv[++i]);
-    } else {
-      const size_t colon = a.rfind(':');
-      if (colon == std::string::npos) {
-        std::fprintf(stderr, "usage: vpremesh-bench [--threads N] [--repeat R] MODEL:TARGET ...\n");
-        return 2;
-      }
-      jobs.emplace_back(a.substr(0, colon), uint32_t(std::stoul(a.substr(colon + 1))));
-    }
+  Args args;
+  if (parse_args(argc, argv, &args) != 0) {
+    std::fprintf(stderr,
+                 "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--peers all|none|LIST]\n"
+                 "                      [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
+    return 2;
   }
   std::unique_ptr<tbb::global_control> limit;
-  if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+  if (args.threads > 0)
+    limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, args.threads);
+  auto renderer = vpr::create_renderer(vpr::RendererKind::kAuto);
+  if (!renderer.ok()) {
+    std::fprintf(stderr, "%s\n", renderer.status().to_string().c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "renderer: %s\n", (*renderer)->description().c_str());
 
-  const char* stages[] = {"views",          "render",   "image_saliency", "unproject",
-                          "saliency_field", "sampling", "awlop",          "meshing"};
-  std::printf("| model | in V | target | out V | read |");
-  for (const char* s : stages) std::printf(" %s |", s);
-  std::printf(" write | total ms | OpenMesh QEM ms | ratio |\n|---|---|---|---|---|");
-  for (size_t i = 0; i < std::size(stages); ++i) std::printf("---|");
-  std::printf("---|---|---|---|\n");
-
-  for (const auto& [path, target] : jobs) {
-    for (int r = 0; r < repeat; ++r) {
-      auto start = Clock::now();
-      auto mesh = vpr::read_mesh(path);
-      if (!mesh.ok()) {
-        std::fprintf(stderr, "%s: %s\n", path.c_str(), mesh.status().to_string().c_str());
-        return 1;
-      }
-      const double read_ms = ms_since(start);
-      vpr::PipelineOptions options;
-      options.target_vertices = target;
-      auto result = vpr::run_pipeline(*mesh, options);
-      if (!result.ok()) {
-        std::fprintf(stderr, "%s: %s\n", path.c_str(), result.status().to_string().c_str());
-        return 1;
-      }
-      start = Clock::now();
-      auto encoded = vpr::encode_draco(result->mesh, result->saliency.data(), {});
-      const double write_ms = ms_since(start);
-      std::map<std::string, double> ms;
-      for (const auto& t : result->stages) ms[t.name] += t.ms;
-      double total = read_ms + write_ms;
-      std::printf("| %s | %zu | %u | %zu | %.0f |", path.substr(path.rfind('/') + 1).c_str(), mesh->vertex_count(),
-                  target, result->mesh.vertex_count(), read_ms);
-      for (const char* s : stages) {
-        std::printf(" %.0f |", ms[s]);
-        total += ms[s];
-      }
-      // The decimation alone, as before the peers library: conversion excluded.
-      auto peer = vpr::peers::openmesh_quadric(*mesh, target);
-      if (!peer.ok()) {
-        std::fprintf(stderr, "%s: %s\n", path.c_str(), peer.status().to_string().c_str());
-        return 1;
-      }
-      if (!peer->note.empty()) std::fprintf(stderr, "%s: OpenMesh QEM %s\n", path.c_str(), peer->note.c_str());
-      const double qem = peer->core_ms;
-      std::printf(" %.0f | %.0f | %.0f | %.2f |\n", write_ms, total, qem, qem / total);
-      std::fflush(stdout);
+  std::vector<Input> inputs;
+  for (const auto& [spec, target] : args.inputs) {
+    auto in = load_input(spec, target);
+    if (!in.ok()) {
+      std::fprintf(stderr, "%s: %s\n", spec.c_str(), in.status().to_string().c_str());
+      return 1;
     }
+    inputs.push_back(std::move(in).value());
+  }
+
+  // 1. Per-stage times: one warm-up job per input and device, then the median
+  //    of `repeat` jobs (stage columns are from the median-total run).
+  std::printf("| model | in V | in F | target | device | out V | decode |");
+  for (const char* s : kStages) std::printf(" %s |", s);
+  std::printf(" encode | total ms (median of %d) | min ms |\n|---|---|---|---|---|---|---|", args.repeat);
+  for (size_t i = 0; i < std::size(kStages); ++i) std::printf("---|");
+  std::printf("---|---|---|\n");
+  std::map<std::pair<std::string, std::string>, double> ours;  // (model, device) -> median total
+  for (const Input& in : inputs) {
+    for (vpr::DevicePolicy device : args.devices) {
+      auto warm = run_job(in, device, renderer->get());
+      if (!warm.ok()) {
+        std::fprintf(stderr, "%s on %s: %s\n", in.name.c_str(), device_label(device), warm.status().to_string().c_str());
+        continue;
+      }
+      std::vector<JobTimes> runs;
+      for (int r = 0; r < args.repeat; ++r) {
+        auto t = run_job(in, device, renderer->get());
+        if (t.ok()) runs.push_back(std::move(t).value());
+      }
+      if (runs.empty()) continue;
+      std::sort(runs.begin(), runs.end(), [](const JobTimes& a, const JobTimes& b) { return a.total < b.total; });
+      const JobTimes& m = runs[runs.size() / 2];
+      if (!m.device_note.empty()) std::fprintf(stderr, "%s on %s: %s\n", in.name.c_str(), device_label(device),
+                                               m.device_note.c_str());
+      std::printf("| %s | %zu | %zu | %u | %s | %zu | %.1f |", in.name.c_str(), in.mesh.vertex_count(),
+                  in.mesh.face_count(), in.target, device_label(device), m.out_vertices, m.decode);
+      for (const char* s : kStages) std::printf(" %.1f |", m.stage.count(s) ? m.stage.at(s) : 0.0);
+      std::printf(" %.1f | %.1f | %.1f |\n", m.encode, m.total, runs.front().total);
+      std::fflush(stdout);
+      ours[{in.name, device_label(device)}] = m.total;
+    }
+  }
+
+  // 2. Peers on the same input to the same vertex count (their algorithm's
+  //    own time, conversions excluded; one run each, after ours).
+  if (args.peers != "none") {
+    std::printf("\n| model | target | method | out V | ms | time / ours (%s) |\n|---|---|---|---|---|---|\n",
+                device_label(args.devices.back()));
+    for (const Input& in : inputs) {
+      const auto it = ours.find({in.name, device_label(args.devices.back())});
+      const double reference = it == ours.end() ? 0 : it->second;
+      for (const auto& [key, ms] : ours)
+        if (key.first == in.name)
+          std::printf("| %s | %u | vpremesh (%s) | | %.1f | %.2f |\n", in.name.c_str(), in.target, key.second.c_str(),
+                      ms, reference > 0 ? ms / reference : 0);
+      for (const auto& peer : vpr::peers::all_peers()) {
+        if (args.peers != "all" && args.peers.find(peer.name) == std::string::npos) continue;
+        std::fprintf(stderr, "%s: %s...\n", in.name.c_str(), peer.name.c_str());
+        auto r = peer.run(in.mesh, in.target);
+        if (!r.ok()) {
+          std::printf("| %s | %u | %s | failed: %s | | |\n", in.name.c_str(), in.target, peer.name.c_str(),
+                      r.status().message().c_str());
+          continue;
+        }
+        std::printf("| %s | %u | %s | %zu | %.1f | %.2f |\n", in.name.c_str(), in.target, peer.name.c_str(),
+                    r->mesh.vertex_count(), r->core_ms, reference > 0 ? r->core_ms / reference : 0);
+        std::fflush(stdout);
+      }
+    }
+  }
+
+  // 3. Throughput: `jobs` jobs on `concurrency` threads (each with its own
+  //    renderer and, on the GPU, its own stream) against one at a time.
+  if (args.concurrency > 1) {
+    const int jobs = args.jobs > 0 ? args.jobs : 4 * args.concurrency;
+    std::printf("\n| model | device | concurrency | jobs | wall s | jobs/s | speedup over 1 |\n|---|---|---|---|---|---|---|\n");
+    for (const Input& in : inputs)
+      for (vpr::DevicePolicy device : args.devices) {
+        double rate1 = 0;
+        for (int c : {1, args.concurrency}) {
+          std::vector<std::unique_ptr<vpr::Renderer>> renderers;
+          for (int i = 0; i < c; ++i) renderers.push_back(std::move(vpr::create_renderer(vpr::RendererKind::kAuto)).value());
+          for (int i = 0; i < c; ++i) (void)run_job(in, device, renderers[i].get());  // warm each thread's renderer
+          std::atomic<int> next{0}, failed{0};
+          const auto start = Clock::now();
+          std::vector<std::thread> pool;
+          for (int i = 0; i < c; ++i)
+            pool.emplace_back([&, i] {
+              while (next.fetch_add(1) < jobs)
+                if (!run_job(in, device, renderers[i].get()).ok()) ++failed;
+            });
+          for (auto& t : pool) t.join();
+          const double wall = ms_since(start) / 1000.0;
+          const double rate = (jobs - failed) / wall;
+          if (c == 1) rate1 = rate;
+          std::printf("| %s | %s | %d | %d | %.2f | %.2f | %.2f |\n", in.name.c_str(), device_label(device), c, jobs,
+                      wall, rate, rate1 > 0 ? rate / rate1 : 0);
+          std::fflush(stdout);
+        }
+      }
   }
   return 0;
 }

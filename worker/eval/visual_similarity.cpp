@@ -139,8 +139,8 @@ StatusOr<double> ssim(const FloatImage& a, const FloatImage& b, const SsimOption
         for (int j = 0; j < 5; ++j) m[size_t(j)] += k[size_t(i)] * rows[size_t(y + i) * vw + size_t(x)][size_t(j)];
       const double mu_a = m[0], mu_b = m[1];
       const double var_a = m[2] - mu_a * mu_a, var_b = m[3] - mu_b * mu_b, cov = m[4] - mu_a * mu_b;
-      sum[size_t(y)] += ((2 * mu_a * mu_b + c1) * (2 * cov + c2)) /
-                        ((mu_a * mu_a + mu_b * mu_b + c1) * (var_a + var_b + c2));
+      sum[size_t(y)] +=
+          ((2 * mu_a * mu_b + c1) * (2 * cov + c2)) / ((mu_a * mu_a + mu_b * mu_b + c1) * (var_a + var_b + c2));
       ++count[size_t(y)];
     }
   });

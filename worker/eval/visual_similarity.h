@@ -40,8 +40,8 @@ StatusOr<double> ssim(const GrayImage& a, const GrayImage& b, const SsimOptions&
 FloatImage gaussian_blur(const FloatImage& image, double sigma);
 
 struct VisualSimilarityOptions {
-  int views = 14;          // 6 (axes) or 14 (axes + 8 diagonals), see make_views
-  int resolution = 512;    // square images
+  int views = 14;        // 6 (axes) or 14 (axes + 8 diagonals), see make_views
+  int resolution = 512;  // square images
   SsimOptions ssim;
   // Line drawings are binary; blurring them first makes a one-pixel shift of a
   // line cost a little, not everything.
@@ -54,8 +54,8 @@ struct VisualSimilarityOptions {
 };
 
 struct ViewSimilarity {
-  std::string view;  // "+x", ..., "-x-y-z"
-  double ssim = 0;   // shaded renderings
+  std::string view;      // "+x", ..., "-x-y-z"
+  double ssim = 0;       // shaded renderings
   double line_ssim = 0;  // blurred line drawings (silhouette | inner features)
 };
 

@@ -60,7 +60,7 @@ StatusOr<PeerResult> meshopt_simplify(const Mesh& input, uint32_t target_vertice
   for (; runs < 4; ++runs) {
     const size_t ti = std::max<size_t>(3, size_t(std::llround(target_indices / 3)) * 3);
     const size_t n = ::meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(), welded,
-                                      3 * sizeof(float), ti, 1.0f, 0, nullptr);
+                                        3 * sizeof(float), ti, 1.0f, 0, nullptr);
     const size_t got = referenced_vertices(out, n, welded);
     const auto miss = [&](size_t v) { return std::abs(double(v) - double(target_vertices)); };
     if (best.empty() || miss(got) < miss(best_vertices)) {

@@ -22,8 +22,8 @@ StatusOr<PeerResult> openmesh_quadric(const Mesh& unwelded, uint32_t target_vert
   OmMesh mesh;
   std::vector<OmMesh::VertexHandle> vh(input.vertex_count());
   for (size_t v = 0; v < input.vertex_count(); ++v)
-    vh[v] = mesh.add_vertex(
-        OmMesh::Point(input.positions[3 * v], input.positions[3 * v + 1], input.positions[3 * v + 2]));
+    vh[v] =
+        mesh.add_vertex(OmMesh::Point(input.positions[3 * v], input.positions[3 * v + 1], input.positions[3 * v + 2]));
   size_t refused = 0;
   for (size_t f = 0; f < input.face_count(); ++f) {
     const uint32_t* t = &input.indices[3 * f];

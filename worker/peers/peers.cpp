@@ -1,10 +1,10 @@
 // The peer registry and what the peers share.
 #include "peers.h"
 
-#include "peers_internal.h"
-
 #include <cstring>
 #include <unordered_map>
+
+#include "peers_internal.h"
 
 namespace vpr::peers {
 

@@ -19,8 +19,8 @@
 namespace vpr::peers {
 
 struct PeerResult {
-  Mesh mesh;        // compact: every vertex is referenced by a face
-  double ms = 0;    // wall time of the whole call: conversion in, the method, conversion out
+  Mesh mesh;           // compact: every vertex is referenced by a face
+  double ms = 0;       // wall time of the whole call: conversion in, the method, conversion out
   double core_ms = 0;  // wall time of the library's algorithm alone (what the benchmark reports)
   std::string note;    // what the method had to do or could not do, "" when nothing to say
 };
@@ -43,9 +43,9 @@ StatusOr<PeerResult> openmesh_quadric(const Mesh& input, uint32_t target_vertice
 StatusOr<PeerResult> meshopt_simplify(const Mesh& input, uint32_t target_vertices);
 
 struct IsotropicOptions {
-  int iterations = 3;          // split/collapse/flip/smooth rounds of one remeshing run (CGAL's default is 1)
-  int max_runs = 6;            // remeshing runs spent searching for the edge length
-  double tolerance = 0.02;     // stop when |V - target| <= tolerance * target
+  int iterations = 3;       // split/collapse/flip/smooth rounds of one remeshing run (CGAL's default is 1)
+  int max_runs = 6;         // remeshing runs spent searching for the edge length
+  double tolerance = 0.02;  // stop when |V - target| <= tolerance * target
 };
 
 // CGAL's isotropic remeshing with the target edge length L chosen to land on

@@ -8,6 +8,9 @@
 
 #include "debug_output.h"
 #include "job_device.h"
+#ifdef VPR_HAVE_CUDA
+#include "gpu_saliency.h"
+#endif
 #include "unproject.h"
 
 namespace vpr {
@@ -45,14 +48,16 @@ class StageRunner {
   // A stage with a GPU twin: fn(ctx) runs on the job's device; when it fails
   // on the GPU (out of memory, a CUDA error) it reruns on the CPU, the job goes
   // on, and the stage's timing says "cpu" and why.
+  // cpu_note: recorded when the stage runs on the CPU (e.g. why the GPU
+  // version of a fused step could not be used).
   template <class Fn>
-  Status run_twin(const char* name, const JobDevice& device, Fn&& fn) {
+  Status run_twin(const char* name, const JobDevice& device, Fn&& fn, const std::string& cpu_note = "") {
     VPR_RETURN_IF_ERROR(check_cancelled(name));
     const auto start = Clock::now();
     const ExecContext cpu_ctx;
     if (!device.on_gpu()) {
       Status status = fn(cpu_ctx);
-      record(name, start, "cpu", "");
+      record(name, start, "cpu", cpu_note);
       if (!status.ok()) return {status.code(), std::string(name) + ": " + status.message()};
       return Status::Ok();
     }
@@ -69,16 +74,20 @@ class StageRunner {
     return Status::Ok();
   }
 
- private:
   Status check_cancelled(const char* name) const {
     if (options_.keep_going && !options_.keep_going())
       return {StatusCode::kCancelled, std::string("job cancelled before stage ") + name};
     return Status::Ok();
   }
   void record(const char* name, Clock::time_point start, const std::string& device, const std::string& note) {
-    result_->stages.push_back({name, ms_since(start), device, note});
+    record_ms(name, ms_since(start), device, note);
+  }
+  void record_ms(const char* name, double ms, const std::string& device, const std::string& note) {
+    result_->stages.push_back({name, ms, device, note});
     if (options_.on_stage) options_.on_stage(result_->stages.back());
   }
+
+ private:
 
   const PipelineOptions& options_;
   PipelineResult* result_;
@@ -200,27 +209,59 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     if (!status.ok()) return Status(status.code(), "render: " + status.message());
   }
 
-  // Stage 2: image-space saliency per view.
+  // Stages 2-3: image-space saliency per view, then feature pixels to 3D
+  // saliency points. On the GPU one fused pass per view keeps the images on
+  // the device and brings back only the points (and the feature images when
+  // debug output wants them); on the CPU, or when the fused pass fails on the
+  // GPU, the two stages run one after the other on the CPU.
   std::vector<FeatureImages> features(views.size());
-  VPR_RETURN_IF_ERROR(stage.run_twin("image_saliency", *device, [&](const ExecContext& c) -> Status {
-    for (size_t v = 0; v < views.size(); ++v)
-      VPR_RETURN_IF_ERROR(VPR_TWIN(c, detect_features)(snapshots[v], options.image, &features[v], c));
-    return Status::Ok();
-  }));
-
-  // Stage 3: feature pixels to 3D saliency points.
   std::vector<float> saliency_points;
   std::vector<std::vector<float>> view_points(views.size());
-  VPR_RETURN_IF_ERROR(stage.run_twin("unproject", *device, [&](const ExecContext& c) -> Status {
-    saliency_points.clear();
-    for (size_t v = 0; v < views.size(); ++v) {
-      view_points[v].clear();
-      VPR_RETURN_IF_ERROR(
-          VPR_TWIN(c, unproject_features)(features[v].features, snapshots[v].depth, views[v], &view_points[v], c));
-      saliency_points.insert(saliency_points.end(), view_points[v].begin(), view_points[v].end());
+  bool fused = false;
+  std::string fused_failure;
+#ifdef VPR_HAVE_CUDA
+  if (device->on_gpu()) {
+    VPR_RETURN_IF_ERROR(stage.check_cancelled("image_saliency"));
+    const bool want_images = !options.debug_dir.empty();
+    const auto start = Clock::now();
+    Status status = Status::Ok();
+    for (size_t v = 0; v < views.size() && status.ok(); ++v)
+      status = cuda::view_saliency_points(snapshots[v], views[v], options.image, &view_points[v],
+                                          want_images ? &features[v] : nullptr, device->context());
+    if (status.ok()) {
+      stage.record("image_saliency", start, "cuda", "");
+      stage.record_ms("unproject", 0, "cuda", "fused into image_saliency on the GPU");
+      fused = true;
+    } else {
+      fused_failure = "GPU failed (" + status.to_string() + "), reran on the CPU";
+      for (auto& p : view_points) p.clear();
     }
-    return Status::Ok();
-  }));
+  }
+#endif
+  if (!fused) {
+    const std::unique_ptr<JobDevice> cpu_only = std::move(JobDevice::select(DevicePolicy::kCpu, 0, nullptr)).value();
+    const JobDevice& twin_device = fused_failure.empty() ? *device : *cpu_only;
+    VPR_RETURN_IF_ERROR(stage.run_twin(
+        "image_saliency", twin_device,
+        [&](const ExecContext& c) -> Status {
+          for (size_t v = 0; v < views.size(); ++v)
+            VPR_RETURN_IF_ERROR(VPR_TWIN(c, detect_features)(snapshots[v], options.image, &features[v], c));
+          return Status::Ok();
+        },
+        fused_failure));
+    VPR_RETURN_IF_ERROR(stage.run_twin(
+        "unproject", twin_device,
+        [&](const ExecContext& c) -> Status {
+          for (size_t v = 0; v < views.size(); ++v) {
+            view_points[v].clear();
+            VPR_RETURN_IF_ERROR(VPR_TWIN(c, unproject_features)(features[v].features, snapshots[v].depth, views[v],
+                                                                &view_points[v], c));
+          }
+          return Status::Ok();
+        },
+        fused_failure));
+  }
+  for (const auto& p : view_points) saliency_points.insert(saliency_points.end(), p.begin(), p.end());
   result.saliency_points = saliency_points.size() / 3;
 
   if (!options.debug_dir.empty()) {
