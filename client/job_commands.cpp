@@ -22,7 +22,7 @@ void add_server_flags(CLI::App* cmd, std::string& server, double& deadline_s);  
 namespace {
 
 struct JobArgs {
-  std::string job_id, server, output, field_out, debug_dir;
+  std::string job_id, server, output, field_out;
   bool json = false;
   double deadline_s = 0;
 };
@@ -142,7 +142,6 @@ int run_watch(const JobArgs& a) {
   JobOutputs outputs;
   outputs.output = a.output;
   outputs.field_out = a.field_out;
-  outputs.debug_dir = a.debug_dir;
   outputs.json = a.json;
   return finish_job(outcome, outputs, a.server);
 }
@@ -168,7 +167,6 @@ Command add_watch_command(CLI::App& app) {
   CLI::App* cmd = add_job_subcommand(app, "watch", "Follow a job to its end and write its result", *args);
   cmd->add_option("-o,--output", args->output, "Output mesh (.drc .ply .obj)");
   cmd->add_option("--field-out", args->field_out, "Write the result colored by its saliency field");
-  cmd->add_option("--debug-dir", args->debug_dir, "Write the server's per-view images here");
   return [args]() { return run_watch(*args); };
 }
 

@@ -2,7 +2,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -78,10 +77,8 @@ Status JobOutcome::add(const v1::JobEvent& e) {
     case v1::JobEvent::kSaliency:
       return append_floats("saliency", e.saliency(), &saliency, &saliency_total);
     case v1::JobEvent::kSaliencyPoints:
-      break;  // not written by the CLI
     case v1::JobEvent::kDebugImage:
-      debug_images.emplace_back(e.debug_image().name(), e.debug_image().png());
-      break;
+      break;  // not requested by the CLI (the server does not serve them yet)
     case v1::JobEvent::kCompleted:
       end = End::kCompleted;
       summary = e.completed();
@@ -168,18 +165,6 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
                                  " vertices"));
     if (Status s = write_mesh(out.field_out, mesh, saliency_for(mesh)); !s.ok()) return fail(s);
   }
-  if (!out.debug_dir.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(out.debug_dir, ec);
-    if (ec) return fail(not_found(out.debug_dir + ": " + ec.message()));
-    for (const auto& [name, png] : o.debug_images) {
-      // Names come from the server: keep them inside the folder.
-      const std::string file = std::filesystem::path(name).filename().string();
-      if (file.empty() || file == "." || file == "..") continue;
-      if (Status s = write_bytes(out.debug_dir + "/" + file, png.data(), png.size()); !s.ok()) return fail(s);
-    }
-  }
-
   PipelineResult result;
   result.stages = o.stages;
   result.renderer = o.summary.renderer();

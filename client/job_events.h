@@ -8,7 +8,6 @@
 #include <cstdint>
 #include <functional>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "pipeline/pipeline.h"
@@ -27,7 +26,6 @@ struct JobOutcome {
   uint64_t result_total = 0;
   std::vector<float> saliency;  // one value per output vertex
   uint64_t saliency_total = 0;
-  std::vector<std::pair<std::string, std::string>> debug_images;  // name, PNG bytes
   enum class End { kNone, kCompleted, kFailed, kCancelled } end = End::kNone;
   vpremesh::v1::Completed summary;  // when completed
   vpremesh::v1::Failure failure;    // when failed or cancelled
@@ -47,7 +45,6 @@ Status follow_events(const std::function<bool(vpremesh::v1::JobEvent*)>& read, P
 struct JobOutputs {
   std::string output;     // .drc (the server's bytes as they are), .ply or .obj
   std::string field_out;  // the result colored by its saliency field
-  std::string debug_dir;  // per-view PNGs
   bool json = false;
   uint32_t target_vertices = 0;  // for the table's deviation column (0: unknown)
   double read_ms = -1;           // client side: reading and encoding the input

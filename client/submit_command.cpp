@@ -31,11 +31,11 @@ namespace {
 constexpr size_t kChunkBytes = size_t(1) << 20;
 
 struct SubmitArgs {
-  std::string input, output, field_out, debug_dir, server, label, device = "any", awlop_support = "target";
+  std::string input, output, field_out, server, label, device = "any", awlop_support = "target";
   bool json = false, no_wait = false, no_pca = false;
   std::vector<double> rotation;
   int quantization_bits = 0;  // upload: 0 = lossless
-  int result_quantization_bits = 0;  // 0 = the server's default
+  int result_quantization_bits = 0;  // 0 = 14 bits, the same file as `vpremesh local -o out.drc`
   int priority = 0;
   double deadline_s = 0;
   PipelineOptions options;
@@ -93,7 +93,6 @@ StatusOr<v1::JobSpec> build_spec(SubmitArgs& a, uint64_t upload_bytes) {
   spec.set_priority(a.priority);
   spec.set_return_mesh(true);  // also for --no-wait: `vpremesh watch` may want it later
   spec.set_return_saliency(true);
-  spec.set_return_debug_images(!a.debug_dir.empty());
   spec.set_result_quantization_bits(uint32_t(a.result_quantization_bits));
   spec.set_device(a.device == "cpu" ? v1::DEVICE_CPU : a.device == "cuda" ? v1::DEVICE_CUDA : v1::DEVICE_ANY);
   return spec;
@@ -130,7 +129,6 @@ int run_submit(SubmitArgs& a) {
   JobOutputs outputs;
   outputs.output = a.output;
   outputs.field_out = a.field_out;
-  outputs.debug_dir = a.debug_dir;
   outputs.json = a.json;
   outputs.target_vertices = a.options.target_vertices;
 
@@ -227,14 +225,13 @@ Command add_submit_command(CLI::App& app) {
   add_server_flags(cmd, args->server, args->deadline_s);
   add_pipeline_flags(cmd, args->options, args->awlop_support, args->no_pca, args->rotation);
   cmd->add_option("--field-out", args->field_out, "Write the result colored by its saliency field (.ply .drc .obj)");
-  cmd->add_option("--debug-dir", args->debug_dir, "Write the server's per-view images here");
   cmd->add_flag("--json", args->json, "Print a JSON report instead of the table (no progress lines)");
   cmd->add_flag("--no-wait", args->no_wait, "Only queue the job and print its id (follow it with watch)");
   cmd->add_option("--quantization-bits", args->quantization_bits,
                   "Draco position bits of the upload, 1..30 (0 = lossless)")
       ->capture_default_str();
   cmd->add_option("--result-quantization-bits", args->result_quantization_bits,
-                  "Draco position bits of the result (0 = the server's default)")
+                  "Draco position bits of the result, 1..30 (0 = 14, as local writes .drc)")
       ->check(CLI::Range(0, 30))
       ->capture_default_str();
   cmd->add_option("--priority", args->priority, "Higher runs first, -10..10")

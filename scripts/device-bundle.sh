@@ -10,7 +10,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=build/device
-MODELS=${MODELS:-"igea.ply horse.ply bunny.obj kitten.obj fandisk.obj nefertiti.obj"}
+MODELS=${MODELS:-"igea.ply horse.ply bunny.obj kitten.obj"}
 
 cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DVPR_CUDA="${CUDA:-ON}" -DVPR_OSMESA=OFF -DVPR_ALLOW_PARTIAL="${PARTIAL:-OFF}" \
   -DCMAKE_CUDA_ARCHITECTURES=90 >/dev/null

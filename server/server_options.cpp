@@ -33,7 +33,7 @@ void add_server_options(CLI::App& app, ServerOptions* o) {
   app.add_option("--max-upload-mib", *upload_mib, "Largest Draco upload in MiB")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 20))
       ->capture_default_str()
-      ->each([o, upload_mib](const std::string&) { o->limits.max_upload_bytes = *upload_mib << 20; });
+      ->each([o](const std::string& mib) { o->limits.max_upload_bytes = std::stoull(mib) << 20; });
   app.add_option("--max-vertices", o->limits.max_vertices, "Most input vertices per job")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();

@@ -4,6 +4,8 @@
 // (read the Draco file, run_pipeline, encode_draco with its defaults).
 #include "server/remesh_service.h"
 
+#include <draco/compression/expert_encode.h>
+#include <draco/mesh/mesh.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
@@ -239,7 +241,7 @@ TEST(RemeshService, LimitsAreResourceExhaustedNamingTheFlag) {
   EXPECT_NE(st.error_message().find("--max-upload-mib 2"), std::string::npos) << st.error_message();
   st = submit(s, upload(small_spec(), draco_sphere(), kMaxChunkBytes + 1), &id);
   EXPECT_TRUE(st.ok()) << st.error_message();  // the sphere is smaller than one chunk
-  std::vector<uint8_t> two_mib(2u << 20 - 8, 'x');
+  std::vector<uint8_t> two_mib((2u << 20) - 8, 'x');
   std::copy_n("DRACO", 5, two_mib.begin());
   st = submit(s, upload(small_spec(), two_mib, kMaxChunkBytes + 8), &id);
   EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
@@ -309,24 +311,76 @@ TEST(RunJob, CancelledRunningJobStopsAtAStageBoundary) {
   for (const auto& e : events->events) EXPECT_FALSE(e.has_stage() || e.has_result());  // stopped before any stage
 }
 
-TEST(RunJob, NanCoordinatesFailWithTheReason) {
+// Draco files that encode_draco would never write: raw float positions
+// (which may be NaN), or a point cloud with no faces.
+std::vector<uint8_t> raw_draco(const Mesh& m, bool with_faces) {
+  std::unique_ptr<draco::PointCloud> pc;
+  if (with_faces) {
+    auto mesh = std::make_unique<draco::Mesh>();
+    mesh->SetNumFaces(m.face_count());
+    for (size_t f = 0; f < m.face_count(); ++f) {
+      draco::Mesh::Face face;
+      for (int k = 0; k < 3; ++k) face[k] = draco::PointIndex(m.indices[3 * f + k]);
+      mesh->SetFace(draco::FaceIndex(uint32_t(f)), face);
+    }
+    pc = std::move(mesh);
+  } else {
+    pc = std::make_unique<draco::PointCloud>();
+  }
+  pc->set_num_points(uint32_t(m.vertex_count()));
+  draco::GeometryAttribute pos;
+  pos.Init(draco::GeometryAttribute::POSITION, nullptr, 3, draco::DT_FLOAT32, false, sizeof(float) * 3, 0);
+  const int id = pc->AddAttribute(pos, true, uint32_t(m.vertex_count()));
+  for (size_t i = 0; i < m.vertex_count(); ++i)
+    pc->attribute(id)->SetAttributeValue(draco::AttributeValueIndex(uint32_t(i)), &m.positions[3 * i]);
+  // The Mesh overload encodes connectivity; the PointCloud one does not.
+  auto encoder = with_faces ? std::make_unique<draco::ExpertEncoder>(static_cast<const draco::Mesh&>(*pc))
+                            : std::make_unique<draco::ExpertEncoder>(*pc);
+  encoder->SetSpeedOptions(10, 10);  // sequential, no quantization: floats as they are
+  draco::EncoderBuffer out;
+  EXPECT_TRUE(encoder->EncodeToBuffer(&out).ok());
+  return std::vector<uint8_t>(out.data(), out.data() + out.size());
+}
+
+v1::JobStatus run_one(const std::vector<uint8_t>& bytes) {
   EmbeddedQueue queue(EmbeddedQueueOptions{});
-  Mesh m = testing::icosphere(1);
-  m.positions[4] = NAN;
-  DracoOptions raw;
-  raw.speed = 10;
-  auto bytes = encode_draco(m, nullptr, raw);
-  if (!bytes.ok()) GTEST_SKIP() << "Draco refuses to encode NaN: " << bytes.status().message();
   JobSubmission sub;
   sub.spec = small_spec();
-  sub.mesh = *bytes;
+  sub.mesh = bytes;
+  auto id = queue.submit(std::move(sub));
+  auto job = queue.claim("w");
+  run_job(queue, std::move(*job), WorkerContext{});
+  return *queue.status(*id);
+}
+
+TEST(RunJob, NanCoordinatesAndPointCloudsFailWithTheReason) {
+  Mesh m = testing::icosphere(1);
+  m.positions[4] = NAN;
+  v1::JobStatus nan = run_one(raw_draco(m, true));
+  EXPECT_EQ(nan.state(), v1::JOB_STATE_FAILED);
+  EXPECT_EQ(nan.failure().code(), int(grpc::StatusCode::INVALID_ARGUMENT)) << nan.failure().message();
+  EXPECT_NE(nan.failure().message().find("finite"), std::string::npos) << nan.failure().message();
+
+  v1::JobStatus cloud = run_one(raw_draco(testing::icosphere(1), false));
+  EXPECT_EQ(cloud.state(), v1::JOB_STATE_FAILED);
+  EXPECT_EQ(cloud.failure().code(), int(grpc::StatusCode::INVALID_ARGUMENT)) << cloud.failure().message();
+  EXPECT_NE(cloud.failure().message().find("point cloud"), std::string::npos) << cloud.failure().message();
+}
+
+TEST(RunJob, VertexLimitNamesTheFlag) {
+  EmbeddedQueue queue(EmbeddedQueueOptions{});
+  JobSubmission sub;
+  sub.spec = small_spec();
+  sub.mesh = draco_sphere();  // 642 vertices
   auto id = queue.submit(std::move(sub));
   auto job = queue.claim("w");
   WorkerContext ctx;
+  ctx.limits.max_vertices = 500;
   run_job(queue, std::move(*job), ctx);
-  auto status = queue.status(*id);
-  EXPECT_EQ(status->state(), v1::JOB_STATE_FAILED);
-  EXPECT_EQ(status->failure().code(), int(grpc::StatusCode::INVALID_ARGUMENT)) << status->failure().message();
+  v1::JobStatus st = *queue.status(*id);
+  EXPECT_EQ(st.state(), v1::JOB_STATE_FAILED);
+  EXPECT_EQ(st.failure().code(), int(grpc::StatusCode::RESOURCE_EXHAUSTED)) << st.failure().message();
+  EXPECT_NE(st.failure().message().find("--max-vertices 500"), std::string::npos) << st.failure().message();
 }
 
 }  // namespace
