@@ -181,6 +181,9 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
   summary.write_ms = ms_since(start);
   if (out.json) {
     nlohmann::json j = report_json(result, summary);
+    // The service does not report AWLOP and meshing statistics: leave them out, not zero.
+    j.erase("awlop");
+    j.erase("meshing");
     j["job_id"] = o.job_id;
     j["server"] = server;
     j["worker"] = o.worker;
@@ -207,8 +210,7 @@ std::shared_ptr<grpc::Channel> make_channel(const std::string& server) {
 
 void set_deadline(grpc::ClientContext& context, double seconds) {
   if (seconds <= 0) return;
-  context.set_deadline(std::chrono::system_clock::now() +
-                       std::chrono::microseconds(int64_t(seconds * 1e6)));
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::microseconds(int64_t(seconds * 1e6)));
 }
 
 }  // namespace vpr::cli

@@ -9,7 +9,9 @@ namespace v1 = vpremesh::v1;
 ProgressLine::ProgressLine(std::FILE* out, bool enabled)
     : out_(out), enabled_(enabled), terminal_(enabled && ::isatty(::fileno(out))) {}
 
-ProgressLine::~ProgressLine() { finish(); }
+ProgressLine::~ProgressLine() {
+  finish();
+}
 
 void ProgressLine::update(const std::string& text) {
   if (!enabled_ || text.empty()) return;

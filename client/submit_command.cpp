@@ -34,7 +34,7 @@ struct SubmitArgs {
   std::string input, output, field_out, server, label, device = "any", awlop_support = "target";
   bool json = false, no_wait = false, no_pca = false;
   std::vector<double> rotation;
-  int quantization_bits = 0;  // upload: 0 = lossless
+  int quantization_bits = 0;         // upload: 0 = lossless
   int result_quantization_bits = 0;  // 0 = 14 bits, the same file as `vpremesh local -o out.drc`
   int priority = 0;
   double deadline_s = 0;
@@ -163,8 +163,7 @@ int run_submit(SubmitArgs& a) {
   if (sent) outputs.upload_ms = ms_since(start);
   ProgressLine progress(stderr, !a.json);
   JobOutcome outcome;
-  const Status problem =
-      follow_events([&stream](v1::JobEvent* e) { return stream->Read(e); }, progress, &outcome);
+  const Status problem = follow_events([&stream](v1::JobEvent* e) { return stream->Read(e); }, progress, &outcome);
   const grpc::Status status = stream->Finish();
   // A job that failed says so in its last event; the call's status may carry
   // the same code. A failed call without such an event is the call's error.

@@ -21,8 +21,8 @@ TEST(PythonClient, RemeshesASmallMesh) {
   const std::string mesh = (dir / "sphere.drc").string(), out = (dir / "result.drc").string();
   write_file(mesh, lossless_draco(icosphere(3)));
 
-  const std::string cmd = "PYTHONPATH='" VPR_PYTHON_STUBS "' '" VPR_PYTHON "' '" VPR_PYTHON_CLIENT
-                          "' --server " + server.address() + " --mesh " + mesh + " --target 300 --out " + out;
+  const std::string cmd = "PYTHONPATH='" VPR_PYTHON_STUBS "' '" VPR_PYTHON "' '" VPR_PYTHON_CLIENT "' --server " +
+                          server.address() + " --mesh " + mesh + " --target 300 --out " + out;
   std::string stdout_text;
   FILE* pipe = ::popen((cmd + " 2>&1").c_str(), "r");
   ASSERT_NE(pipe, nullptr);

@@ -183,7 +183,8 @@ inline std::vector<uint8_t> lossless_draco(const Mesh& mesh) {
 }
 
 inline void write_file(const std::string& path, const std::vector<uint8_t>& bytes) {
-  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
 }
 
 inline v1::JobSpec make_spec(uint32_t target, uint64_t size_bytes) {
@@ -278,7 +279,8 @@ inline bool is_terminal(v1::JobState s) {
 // whatever order their encoders chose.
 inline std::vector<std::array<float, 3>> sorted_positions(const Mesh& mesh) {
   std::vector<std::array<float, 3>> p(mesh.vertex_count());
-  for (size_t i = 0; i < p.size(); ++i) p[i] = {mesh.positions[3 * i], mesh.positions[3 * i + 1], mesh.positions[3 * i + 2]};
+  for (size_t i = 0; i < p.size(); ++i)
+    p[i] = {mesh.positions[3 * i], mesh.positions[3 * i + 1], mesh.positions[3 * i + 2]};
   std::sort(p.begin(), p.end());
   return p;
 }

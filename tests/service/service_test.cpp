@@ -8,8 +8,8 @@
 #include <sys/socket.h>
 
 #include <future>
-#include <set>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "grpc/reflection/v1alpha/reflection.grpc.pb.h"
@@ -36,9 +36,8 @@ v1::JobSpec heavy_spec(uint64_t size_bytes) {
 class ServiceTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("vpremesh_service_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("vpremesh_service_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
@@ -60,8 +59,8 @@ class ServiceTest : public ::testing::Test {
   fs::path dir_;
 };
 
-#define START_SERVER(var, ...)           \
-  auto var = start(__VA_ARGS__);         \
+#define START_SERVER(var, ...)   \
+  auto var = start(__VA_ARGS__); \
   ASSERT_TRUE(var->started()) << var->log()
 
 // `vpremesh submit` gives what `vpremesh local` gives with the same seed:
@@ -83,8 +82,8 @@ TEST_F(ServiceTest, SubmitEqualsLocalAndJobCommandsAnswer) {
   EXPECT_EQ(rj["output"]["faces"], lj["output"]["faces"]);
   std::vector<std::string> stages;
   for (const auto& s : rj["stages"]) stages.push_back(s["name"]);
-  for (const char* stage : {"read", "upload", "queue", "render", "image_saliency", "saliency_field", "awlop",
-                            "meshing", "write"})
+  for (const char* stage :
+       {"read", "upload", "queue", "render", "image_saliency", "saliency_field", "awlop", "meshing", "write"})
     EXPECT_NE(std::find(stages.begin(), stages.end(), stage), stages.end()) << stage << "\n" << remote.out;
 
   auto a = read_mesh(path("local.drc")), b = read_mesh(path("remote.drc"));
@@ -153,7 +152,8 @@ TEST_F(ServiceTest, SixteenConcurrentJobsAllComplete) {
   auto target = [](int i) { return uint32_t(300 + 20 * i); };
   std::vector<std::future<RemeshOutcome>> jobs;
   for (int i = 0; i < kJobs; ++i)
-    jobs.push_back(std::async(std::launch::async, [&, i] { return remesh(*stub, make_spec(target(i), sphere.size()), sphere); }));
+    jobs.push_back(
+        std::async(std::launch::async, [&, i] { return remesh(*stub, make_spec(target(i), sphere.size()), sphere); }));
   std::vector<RemeshOutcome> results;
   for (auto& j : jobs) results.push_back(j.get());
 
@@ -267,8 +267,8 @@ TEST_F(ServiceTest, CorruptDracoIsInvalidArgument) {
   START_SERVER(server);
   const std::string corrupt = std::string("DRACO\x02\x02\x01\x01\x00\x00garbage", 21);
   write_file(path("corrupt.drc"), std::vector<uint8_t>(corrupt.begin(), corrupt.end()));
-  CliRun r = run_cli("submit " + path("corrupt.drc") + " -o " + path("o.ply") + " -n 500 --server " +
-                     server->address());
+  CliRun r =
+      run_cli("submit " + path("corrupt.drc") + " -o " + path("o.ply") + " -n 500 --server " + server->address());
   EXPECT_EQ(r.code, 3) << r.err;
   EXPECT_NE(r.err.find("vpremesh: INVALID_ARGUMENT: "), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(path("o.ply")));
@@ -364,8 +364,8 @@ TEST_F(ServiceTest, SigtermDrains) {
   EXPECT_FALSE(done.result.empty());
   for (auto* f : {&waiting1, &waiting2}) {
     const RemeshOutcome r = f->get();
-    const bool failed_event = r.last() && r.last()->has_failed() &&
-                              r.last()->failed().code() == int(grpc::StatusCode::UNAVAILABLE);
+    const bool failed_event =
+        r.last() && r.last()->has_failed() && r.last()->failed().code() == int(grpc::StatusCode::UNAVAILABLE);
     EXPECT_TRUE(failed_event || r.status.error_code() == grpc::StatusCode::UNAVAILABLE)
         << r.status.error_code() << " " << r.status.error_message();
     EXPECT_FALSE(r.completed());

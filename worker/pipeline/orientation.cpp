@@ -1,8 +1,12 @@
 // Area-weighted principal axes of a triangle surface (see orientation.h).
 #include "orientation.h"
 
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace vpr {
 namespace {
@@ -12,6 +16,11 @@ namespace {
 constexpr double kEqualVarianceTolerance = 1e-3;
 // Third moments below this fraction of sigma^3 are treated as zero (symmetric).
 constexpr double kSkewTolerance = 1e-4;
+
+// Faces per block of the moment sums. Each block is summed on its own and the
+// blocks are added in order, so the sums (and the axes) do not depend on the
+// thread count.
+constexpr size_t kBlock = 8192;
 
 Eigen::Vector3d to_eigen(Vec3d v) {
   return {v.x, v.y, v.z};
@@ -51,19 +60,34 @@ PrincipalAxes surface_principal_axes(const Mesh& mesh) {
 
   // Exact integrals over each triangle (uniform density): with vertices a, b, c
   // and centroid m, the mean of x x^T is (a a^T + b b^T + c c^T + 9 m m^T) / 12.
+  struct Moments {
+    double area = 0.0;
+    Eigen::Vector3d first = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+  };
+  std::vector<Moments> blocks((nf + kBlock - 1) / kBlock);
+  tbb::parallel_for(size_t(0), blocks.size(), [&](size_t blk) {
+    Moments& m = blocks[blk];
+    for (size_t f = blk * kBlock; f < std::min(nf, (blk + 1) * kBlock); ++f) {
+      const Eigen::Vector3d a = to_eigen(load3d(p, mesh.indices[3 * f]) - origin);
+      const Eigen::Vector3d b = to_eigen(load3d(p, mesh.indices[3 * f + 1]) - origin);
+      const Eigen::Vector3d c = to_eigen(load3d(p, mesh.indices[3 * f + 2]) - origin);
+      const double area = 0.5 * (b - a).cross(c - a).norm();
+      if (!(area > 0.0)) continue;
+      const Eigen::Vector3d centroid = (a + b + c) / 3.0;
+      m.area += area;
+      m.first += area * centroid;
+      m.second += area / 12.0 *
+                  (a * a.transpose() + b * b.transpose() + c * c.transpose() + 9.0 * centroid * centroid.transpose());
+    }
+  });
   double area_sum = 0.0;
   Eigen::Vector3d first = Eigen::Vector3d::Zero();
   Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
-  for (size_t f = 0; f < nf; ++f) {
-    const Eigen::Vector3d a = to_eigen(load3d(p, mesh.indices[3 * f]) - origin);
-    const Eigen::Vector3d b = to_eigen(load3d(p, mesh.indices[3 * f + 1]) - origin);
-    const Eigen::Vector3d c = to_eigen(load3d(p, mesh.indices[3 * f + 2]) - origin);
-    const double area = 0.5 * (b - a).cross(c - a).norm();
-    if (!(area > 0.0)) continue;
-    const Eigen::Vector3d m = (a + b + c) / 3.0;
-    area_sum += area;
-    first += area * m;
-    second += area / 12.0 * (a * a.transpose() + b * b.transpose() + c * c.transpose() + 9.0 * m * m.transpose());
+  for (const Moments& m : blocks) {
+    area_sum += m.area;
+    first += m.first;
+    second += m.second;
   }
   if (!(area_sum > 0.0)) return result;
   const Eigen::Vector3d mean = first / area_sum;
@@ -95,22 +119,34 @@ PrincipalAxes surface_principal_axes(const Mesh& mesh) {
   // should be positive. For a triangle and a linear function u with vertex
   // values u0, u1, u2, the mean of u^3 is h3(u0, u1, u2) / 10, h3 being the
   // complete homogeneous symmetric polynomial of degree 3.
-  double third[2] = {0, 0}, var[2] = {0, 0};
-  for (size_t f = 0; f < nf; ++f) {
-    const Eigen::Vector3d a = to_eigen(load3d(p, mesh.indices[3 * f]) - origin) - mean;
-    const Eigen::Vector3d b = to_eigen(load3d(p, mesh.indices[3 * f + 1]) - origin) - mean;
-    const Eigen::Vector3d c = to_eigen(load3d(p, mesh.indices[3 * f + 2]) - origin) - mean;
-    const double area = 0.5 * (b - a).cross(c - a).norm();
-    if (!(area > 0.0)) continue;
-    for (int k = 0; k < 2; ++k) {
-      const double u0 = axes.col(k).dot(a), u1 = axes.col(k).dot(b), u2 = axes.col(k).dot(c);
-      const double h3 = u0 * u0 * u0 + u1 * u1 * u1 + u2 * u2 * u2 + u0 * u0 * (u1 + u2) + u1 * u1 * (u0 + u2) +
-                        u2 * u2 * (u0 + u1) + u0 * u1 * u2;
-      third[k] += area * h3 / 10.0;
-      // The mean of u^2 over the triangle, for the scale of the skew.
-      var[k] += area * (u0 * u0 + u1 * u1 + u2 * u2 + u0 * u1 + u1 * u2 + u0 * u2) / 6.0;
+  struct Skew {
+    double third[2] = {0, 0}, var[2] = {0, 0};
+  };
+  std::vector<Skew> skews(blocks.size());
+  tbb::parallel_for(size_t(0), skews.size(), [&](size_t blk) {
+    Skew& sk = skews[blk];
+    for (size_t f = blk * kBlock; f < std::min(nf, (blk + 1) * kBlock); ++f) {
+      const Eigen::Vector3d a = to_eigen(load3d(p, mesh.indices[3 * f]) - origin) - mean;
+      const Eigen::Vector3d b = to_eigen(load3d(p, mesh.indices[3 * f + 1]) - origin) - mean;
+      const Eigen::Vector3d c = to_eigen(load3d(p, mesh.indices[3 * f + 2]) - origin) - mean;
+      const double area = 0.5 * (b - a).cross(c - a).norm();
+      if (!(area > 0.0)) continue;
+      for (int k = 0; k < 2; ++k) {
+        const double u0 = axes.col(k).dot(a), u1 = axes.col(k).dot(b), u2 = axes.col(k).dot(c);
+        const double h3 = u0 * u0 * u0 + u1 * u1 * u1 + u2 * u2 * u2 + u0 * u0 * (u1 + u2) + u1 * u1 * (u0 + u2) +
+                          u2 * u2 * (u0 + u1) + u0 * u1 * u2;
+        sk.third[k] += area * h3 / 10.0;
+        // The mean of u^2 over the triangle, for the scale of the skew.
+        sk.var[k] += area * (u0 * u0 + u1 * u1 + u2 * u2 + u0 * u1 + u1 * u2 + u0 * u2) / 6.0;
+      }
     }
-  }
+  });
+  double third[2] = {0, 0}, var[2] = {0, 0};
+  for (const Skew& sk : skews)
+    for (int k = 0; k < 2; ++k) {
+      third[k] += sk.third[k];
+      var[k] += sk.var[k];
+    }
   for (int k = 0; k < 2; ++k) {
     Eigen::Vector3d axis = axes.col(k);
     const double sigma = std::sqrt(std::max(var[k] / area_sum, 0.0));

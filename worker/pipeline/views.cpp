@@ -7,6 +7,10 @@
 // depth buffer precision goes to the surface.
 #include "views.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -136,7 +140,9 @@ StatusOr<std::vector<View>> make_views(const Mesh& mesh, const ViewOptions& opti
 
   // Aligned coordinates of every vertex, computed once for all views.
   std::vector<Vec3d> aligned(nv);
-  for (size_t i = 0; i < nv; ++i) aligned[i] = apply(rotation, load3d(mesh.positions.data(), i) - centre);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) aligned[i] = apply(rotation, load3d(mesh.positions.data(), i) - centre);
+  });
 
   const double scale = 1.0 / (1.0 - 2.0 * double(options.margin));
   // Keep the near and far planes a little off the surface: a flat model seen
@@ -154,19 +160,37 @@ StatusOr<std::vector<View>> make_views(const Mesh& mesh, const ViewOptions& opti
     const Vec3d up = cross(back, right);
     const Mat3 basis{right.x, right.y, right.z, up.x, up.y, up.z, back.x, back.y, back.z};
 
-    double lo[3], hi[3];
+    // The extent in the view's frame (min and max: exact in any order).
+    struct Extent {
+      double lo[3], hi[3];
+    };
+    Extent empty;
     for (int a = 0; a < 3; ++a) {
-      lo[a] = std::numeric_limits<double>::infinity();
-      hi[a] = -lo[a];
+      empty.lo[a] = std::numeric_limits<double>::infinity();
+      empty.hi[a] = -empty.lo[a];
     }
-    for (const Vec3d& a : aligned) {
-      const Vec3d e = apply(basis, a);
-      const double c[3] = {e.x, e.y, e.z};
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(lo[k], c[k]);
-        hi[k] = std::max(hi[k], c[k]);
-      }
-    }
+    const Extent extent = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, nv, 16384), empty,
+        [&](const tbb::blocked_range<size_t>& r, Extent x) {
+          for (size_t i = r.begin(); i < r.end(); ++i) {
+            const Vec3d e = apply(basis, aligned[i]);
+            const double c[3] = {e.x, e.y, e.z};
+            for (int k = 0; k < 3; ++k) {
+              x.lo[k] = std::min(x.lo[k], c[k]);
+              x.hi[k] = std::max(x.hi[k], c[k]);
+            }
+          }
+          return x;
+        },
+        [](Extent a, const Extent& b) {
+          for (int k = 0; k < 3; ++k) {
+            a.lo[k] = std::min(a.lo[k], b.lo[k]);
+            a.hi[k] = std::max(a.hi[k], b.hi[k]);
+          }
+          return a;
+        });
+    const double* lo = extent.lo;
+    const double* hi = extent.hi;
     // Same scale on both image axes: the square around the larger extent.
     // A model that is a segment seen end-on would have zero extent; use the
     // diagonal then so that the projection stays invertible.
