@@ -1,5 +1,6 @@
 #include "progress.h"
 
+#include <sys/ioctl.h>
 #include <unistd.h>
 
 namespace vpr::cli {
@@ -16,7 +17,12 @@ ProgressLine::~ProgressLine() {
 void ProgressLine::update(const std::string& text) {
   if (!enabled_ || text.empty()) return;
   if (terminal_) {
-    std::fprintf(out_, "\r%s\033[K", text.c_str());
+    // A line wider than the terminal would wrap, and \r only returns to the last row.
+    winsize size{};
+    std::string shown = text;
+    if (::ioctl(::fileno(out_), TIOCGWINSZ, &size) == 0 && size.ws_col > 1 && shown.size() >= size.ws_col)
+      shown.resize(size.ws_col - 1);
+    std::fprintf(out_, "\r%s\033[K", shown.c_str());
     pending_ = true;
   } else {
     std::fprintf(out_, "%s\n", text.c_str());

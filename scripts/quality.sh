@@ -12,6 +12,8 @@ M=../shared/models
 OUT=docs/images/quality
 [ -x "$BIN" ] || { echo "quality.sh: no vpremesh binary at $BIN (make build, or pass its path)" >&2; exit 2; }
 mkdir -p "$OUT"
+TMP=$(mktemp)  # the JSON report, moved into place once complete
+trap 'rm -f "$TMP"' EXIT
 
 # model first-target second-target
 JOBS="igea.ply 10000 3000
@@ -31,8 +33,8 @@ while read -r model t1 t2; do
   for t in $t1 $t2; do
     dir=$OUT/$name-$t
     echo "== $model -> $t" >&2
-    "$BIN" compare "$M/$model" --target-vertices "$t" --out "$dir" --tile 200 --json > "$dir.json.tmp"
-    mv "$dir.json.tmp" "$dir/report.json"
+    "$BIN" compare "$M/$model" --target-vertices "$t" --out "$dir" --tile 200 --json > "$TMP"
+    mv "$TMP" "$dir/report.json"
   done
   echo "== $model -> $t1, AWLOP 20 iterations" >&2
   "$BIN" compare "$M/$model" --target-vertices "$t1" --no-peers --awlop-iterations 20 --json \

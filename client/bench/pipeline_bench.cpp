@@ -202,6 +202,8 @@ int main(int argc, char** argv) {
       if (runs.empty()) continue;
       std::sort(runs.begin(), runs.end(), [](const JobTimes& a, const JobTimes& b) { return a.total < b.total; });
       const JobTimes& m = runs[runs.size() / 2];
+      std::fprintf(stderr, "%s on %s: render (last run): %s\n", in.name.c_str(), device_label(device),
+                   (*renderer)->last_breakdown().c_str());
       if (!m.device_note.empty()) std::fprintf(stderr, "%s on %s: %s\n", in.name.c_str(), device_label(device),
                                                m.device_note.c_str());
       std::printf("| %s | %zu | %zu | %u | %s | %zu | %.1f |", in.name.c_str(), in.mesh.vertex_count(),

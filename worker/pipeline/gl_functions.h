@@ -95,7 +95,14 @@ void destroy_framebuffer(const Functions& gl, Framebuffer* fb);
 // framebuffer holds at least each view's width x height, shades the mesh
 // (flat, two-sided headlight, see snapshot.cpp) from each view and reads back
 // gray, depth and coverage with row 0 at the top.
-Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out);
+// Wall times of one render_views call, milliseconds.
+struct RenderBreakdown {
+  double prep = 0, upload = 0, draw = 0, readback = 0, convert = 0;
+  std::string to_string() const;
+};
+
+Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
+                    RenderBreakdown* breakdown = nullptr);
 
 // Largest width and height over the views.
 void max_view_size(const std::vector<View>& views, int* width, int* height);

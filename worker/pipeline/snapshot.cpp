@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -276,8 +277,27 @@ void max_view_size(const std::vector<View>& views, int* width, int* height) {
   }
 }
 
-Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out) {
+std::string RenderBreakdown::to_string() const {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "prep %.1f ms, upload %.1f ms, draw %.1f ms, readback %.1f ms, convert %.1f ms", prep,
+                upload, draw, readback, convert);
+  return buf;
+}
+
+Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
+                    RenderBreakdown* breakdown) {
   assert(out != nullptr);
+  RenderBreakdown local;
+  RenderBreakdown& bd = breakdown ? *breakdown : local;
+  bd = RenderBreakdown{};
+  using Clock = std::chrono::steady_clock;
+  auto lap = [last = Clock::now()](double* into) mutable {
+    const auto now = Clock::now();
+    *into += std::chrono::duration<double, std::milli>(now - last).count();
+    last = now;
+  };
+  double unused = 0;
+  lap(&unused);
   out->clear();
   const size_t nf = mesh.face_count();
   for (const View& v : views)
@@ -338,6 +358,7 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   const GLsizei vertex_count = GLsizei(3 * kept);
   std::vector<uint8_t> colors(4 * 3 * kept, 255);
 
+  lap(&bd.prep);
   gl.GetError();
   gl.Disable(GL_DITHER);
   gl.Disable(kMultisample);
@@ -377,6 +398,7 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     gl.VertexPointer(3, GL_FLOAT, 0, positions.data());
     gl.ColorPointer(4, GL_UNSIGNED_BYTE, 0, colors.data());
   }
+  lap(&bd.upload);
   auto release = [&] {
     gl.DisableClientState(GL_VERTEX_ARRAY);
     gl.DisableClientState(GL_COLOR_ARRAY);
@@ -400,7 +422,9 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
         colors[4 * c] = colors[4 * c + 1] = colors[4 * c + 2] = g;
       }
     });
+    lap(&bd.prep);
     if (use_buffers) gl.BufferSubData(GL_ARRAY_BUFFER, 0, color_bytes, colors.data());
+    lap(&bd.upload);
 
     // view_proj * translate(centre): the positions above are centre-relative.
     Mat4 m = view.view_proj;
@@ -415,8 +439,11 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     const int w = view.width, h = view.height;
     rgba.resize(size_t(w) * h * 4);
     depth.resize(size_t(w) * h);
+    gl.Finish();  // the draw's own time, apart from the readback's
+    lap(&bd.draw);
     gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
     gl.ReadPixels(0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
+    lap(&bd.readback);
     const GLenum error = gl.GetError();
     if (error != GL_NO_ERROR) {
       release();
@@ -441,6 +468,7 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
       }
     });
     out->push_back(std::move(s));
+    lap(&bd.convert);
   }
   release();
   return Status::Ok();

@@ -39,6 +39,9 @@ class Renderer {
   // tilted 25 degrees toward the image's upper left. Degenerate faces draw
   // nothing. Out-of-range indices are kInvalidArgument.
   virtual Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out) = 0;
+  // Where the last render() spent its time, for benchmarks:
+  // "prep P ms, upload U ms, draw D ms, readback R ms, convert C ms".
+  virtual std::string last_breakdown() const { return ""; }
 };
 
 // kAuto tries EGL first and falls back to OSMesa. The error names every

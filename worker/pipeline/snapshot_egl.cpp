@@ -105,6 +105,7 @@ class EglRenderer final : public Renderer {
   }
 
   std::string description() const override { return description_; }
+  std::string last_breakdown() const override { return breakdown_.to_string(); }
 
   // One render at a time per renderer: the context is made current on the
   // calling thread for the duration of the call and released afterwards.
@@ -119,7 +120,7 @@ class EglRenderer final : public Renderer {
     } else {
       s = ensure_pbuffer(width, height);
     }
-    if (s.ok()) s = render_views(gl_, mesh, views, out);
+    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_);
     release();
     return s;
   }
@@ -161,6 +162,7 @@ class EglRenderer final : public Renderer {
   bool use_fbo_ = false;
   Framebuffer framebuffer_;
   Functions gl_;
+  RenderBreakdown breakdown_;
   std::string description_;
   std::mutex mutex_;
 };

@@ -35,6 +35,7 @@ class OsmesaRenderer final : public Renderer {
   }
 
   std::string description() const override { return description_; }
+  std::string last_breakdown() const override { return breakdown_.to_string(); }
 
   // One render at a time per renderer; the context is current on the calling
   // thread only for the duration of the call.
@@ -43,7 +44,7 @@ class OsmesaRenderer final : public Renderer {
     int width = 0, height = 0;
     max_view_size(views, &width, &height);
     Status s = make_current(width, height);
-    if (s.ok()) s = render_views(gl_, mesh, views, out);
+    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_);
     release();
     return s;
   }
@@ -76,6 +77,7 @@ class OsmesaRenderer final : public Renderer {
   OSMesaContext context_ = nullptr;
   std::vector<uint8_t> buffer_;  // RGBA8 colour, bottom row first
   Functions gl_;
+  RenderBreakdown breakdown_;
   std::string description_;
   std::mutex mutex_;
 };
