@@ -17,8 +17,6 @@ namespace vpr::cli {
 
 namespace v1 = vpremesh::v1;
 
-void add_server_flags(CLI::App* cmd, std::string& server, double& deadline_s);  // submit_command.cpp
-
 namespace {
 
 struct JobArgs {

@@ -129,7 +129,9 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
 
   const auto start = std::chrono::steady_clock::now();
   const bool need_mesh = !out.output.empty() || !out.field_out.empty();
-  if (need_mesh && (o.result.empty() || o.result.size() != o.result_total))
+  if (need_mesh && o.result_total == 0)
+    return fail(not_found("job " + o.job_id + " was submitted without return_mesh: there is no result to write"));
+  if (need_mesh && o.result.size() != o.result_total)
     return fail(internal_error("the server sent " + std::to_string(o.result.size()) + " of " +
                                std::to_string(o.result_total) + " bytes of the result mesh"));
   Mesh mesh;

@@ -5,6 +5,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <CLI/CLI.hpp>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -62,5 +63,9 @@ std::shared_ptr<grpc::Channel> make_channel(const std::string& server);
 
 // Sets the call's deadline `seconds` from now (0 or less: none).
 void set_deadline(grpc::ClientContext& context, double seconds);
+
+// --server (or $VPREMESH_SERVER) and --deadline, for every service command
+// (defined in submit_command.cpp).
+void add_server_flags(CLI::App* cmd, std::string& server, double& deadline_s);
 
 }  // namespace vpr::cli

@@ -63,11 +63,10 @@ StatusOr<std::vector<uint8_t>> read_bytes(const std::string& path) {
 // format parsed here and encoded with sequential connectivity (speed 10),
 // which keeps every vertex and face in its order, so the server runs on
 // exactly what `vpremesh local` would (with lossless positions).
-StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits, size_t* vertices) {
+StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits) {
   VPR_ASSIGN_OR_RETURN(const MeshFormat format, format_from_path(path));
   if (format == MeshFormat::kDraco) return read_bytes(path);
   VPR_ASSIGN_OR_RETURN(const Mesh mesh, read_mesh(path));
-  *vertices = mesh.vertex_count();
   DracoOptions draco;
   draco.position_bits = quantization_bits;
   draco.speed = 10;
@@ -133,8 +132,7 @@ int run_submit(SubmitArgs& a) {
   outputs.target_vertices = a.options.target_vertices;
 
   auto start = std::chrono::steady_clock::now();
-  size_t input_vertices = 0;
-  auto bytes = draco_upload(a.input, a.quantization_bits, &input_vertices);
+  auto bytes = draco_upload(a.input, a.quantization_bits);
   if (!bytes.ok()) return fail(bytes.status());
   auto spec = build_spec(a, bytes->size());
   if (!spec.ok()) return fail(spec.status());
@@ -172,8 +170,6 @@ int run_submit(SubmitArgs& a) {
   return finish_job(outcome, outputs, a.server);
 }
 
-}  // namespace
-
 // The pipeline flags of `vpremesh local`, the same names and defaults.
 void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, std::string& awlop_support, bool& no_pca,
                         std::vector<double>& rotation) {
@@ -206,6 +202,8 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, std::string& awlop_su
       ->check(CLI::IsMember({"target", "paper"}))
       ->capture_default_str();
 }
+
+}  // namespace
 
 void add_server_flags(CLI::App* cmd, std::string& server, double& deadline_s) {
   cmd->add_option("--server", server, "Server address host:port (or $VPREMESH_SERVER)")

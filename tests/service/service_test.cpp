@@ -22,16 +22,10 @@ namespace vpr::testing {
 namespace {
 
 // A job that runs for seconds in stages of about a second each (14 views at
-// 1024 px): long enough to be caught running, short enough to cancel cheaply.
+// 1024 px on the CPU twins, also where a GPU is): long enough to be caught
+// running, short enough to cancel cheaply.
 const char* const kHeavyModel = "../shared/models/spot.obj";
-const char* const kHeavyFlags = "-n 2000 --views 14 --resolution 1024";
-
-v1::JobSpec heavy_spec(uint64_t size_bytes) {
-  v1::JobSpec spec = make_spec(2000, size_bytes);
-  spec.mutable_options()->set_views(14);
-  spec.mutable_options()->set_resolution(1024);
-  return spec;
-}
+const char* const kHeavyFlags = "-n 2000 --views 14 --resolution 1024 --device cpu";
 
 class ServiceTest : public ::testing::Test {
  protected:
@@ -43,17 +37,9 @@ class ServiceTest : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
 
-  // Starts a server; the test stops at once when it does not come up.
+  // START_SERVER stops the test at once when the server does not come up.
   std::unique_ptr<ServerProcess> start(const std::vector<std::string>& flags = {}) {
-    auto server = std::make_unique<ServerProcess>(flags);
-    EXPECT_TRUE(server->started()) << server->log();
-    return server;
-  }
-
-  std::vector<uint8_t> heavy_upload() {
-    auto mesh = read_mesh(kHeavyModel);
-    EXPECT_TRUE(mesh.ok());
-    return lossless_draco(*mesh);
+    return std::make_unique<ServerProcess>(flags);
   }
 
   fs::path dir_;
@@ -219,7 +205,7 @@ TEST_F(ServiceTest, DeadlineShorterThanTheJob) {
   START_SERVER(server, {"--workers", "1"});
   const std::string at = " --server " + server->address();
   CliRun late = run_cli(std::string("submit ") + kHeavyModel + " -o " + path("late.ply") + " " + kHeavyFlags +
-                        " --deadline 1" + at);
+                        " --deadline 0.3" + at);
   EXPECT_EQ(late.code, 8) << late.out << late.err;
   EXPECT_NE(late.err.find("vpremesh: DEADLINE_EXCEEDED: "), std::string::npos) << late.err;
   EXPECT_FALSE(fs::exists(path("late.ply")));
@@ -318,7 +304,7 @@ TEST_F(ServiceTest, SigtermDrains) {
   ASSERT_TRUE(check(&response).ok());
   EXPECT_EQ(response.status(), grpc::health::v1::HealthCheckResponse::SERVING);
 
-  // A medium job (about 2 s at 512 px) that is running, and two behind it.
+  // A job that runs for seconds (14 views at 1024 px on the CPU), and two behind it.
   auto spot = read_mesh("../shared/models/spot.obj");
   ASSERT_TRUE(spot.ok());
   const std::vector<uint8_t> upload = lossless_draco(*spot);
@@ -331,9 +317,12 @@ TEST_F(ServiceTest, SigtermDrains) {
       }
     };
   };
-  auto running = std::async(std::launch::async, [&] {
-    return remesh(*stub, make_spec(1500, upload.size()), upload, signal_on(started, &v1::JobEvent::has_started));
-  });
+  v1::JobSpec heavy = make_spec(1500, upload.size());
+  heavy.mutable_options()->set_views(14);
+  heavy.mutable_options()->set_resolution(1024);
+  heavy.set_device(v1::DEVICE_CPU);
+  auto running = std::async(
+      std::launch::async, [&] { return remesh(*stub, heavy, upload, signal_on(started, &v1::JobEvent::has_started)); });
   ASSERT_EQ(started.get_future().wait_for(kJobLimit), std::future_status::ready);
   auto waiting1 = std::async(std::launch::async, [&] {
     return remesh(*stub, make_spec(1500, upload.size()), upload, signal_on(queued1, &v1::JobEvent::has_queued));
