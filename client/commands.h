@@ -19,6 +19,8 @@ Command add_submit_command(CLI::App& app);
 Command add_status_command(CLI::App& app);
 Command add_watch_command(CLI::App& app);
 Command add_cancel_command(CLI::App& app);
+// bench_command.cpp: load and latency of a server (closed or open loop).
+Command add_bench_command(CLI::App& app);
 #endif
 
 }  // namespace vpr::cli

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   const vpr::cli::Command status = vpr::cli::add_status_command(app);
   const vpr::cli::Command watch = vpr::cli::add_watch_command(app);
   const vpr::cli::Command cancel = vpr::cli::add_cancel_command(app);
+  const vpr::cli::Command bench = vpr::cli::add_bench_command(app);
 #endif
   try {
     app.parse(argc, argv);
@@ -31,6 +32,7 @@ int main(int argc, char** argv) {
   if (app.got_subcommand("status")) return status();
   if (app.got_subcommand("watch")) return watch();
   if (app.got_subcommand("cancel")) return cancel();
+  if (app.got_subcommand("bench")) return bench();
 #endif
   return vpr::cli::kExitUsage;
 }

@@ -19,6 +19,7 @@
 #include "io/mesh_io.h"
 #include "job_events.h"
 #include "server/job_spec.h"
+#include "upload.h"
 #include "vpremesh/v1/remesh.grpc.pb.h"
 
 namespace vpr::cli {
@@ -26,9 +27,6 @@ namespace vpr::cli {
 namespace v1 = vpremesh::v1;
 
 namespace {
-
-// The API's chunk limit (remesh.proto: "at most 1 MiB each").
-constexpr size_t kChunkBytes = size_t(1) << 20;
 
 struct SubmitArgs {
   std::string input, output, field_out, server, label, device = "any", awlop_support = "target";
@@ -59,22 +57,6 @@ StatusOr<std::vector<uint8_t>> read_bytes(const std::string& path) {
   return bytes;
 }
 
-// The upload: a .drc file as it is (the server validates it), any other
-// format parsed here and encoded with sequential connectivity (speed 10),
-// which keeps every vertex and face in its order, so the server runs on
-// exactly what `vpremesh local` would (with lossless positions).
-StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits) {
-  VPR_ASSIGN_OR_RETURN(const MeshFormat format, format_from_path(path));
-  if (format == MeshFormat::kDraco) return read_bytes(path);
-  VPR_ASSIGN_OR_RETURN(const Mesh mesh, read_mesh(path));
-  DracoOptions draco;
-  draco.position_bits = quantization_bits;
-  draco.speed = 10;
-  auto bytes = encode_draco(mesh, nullptr, draco);
-  if (!bytes.ok()) return Status(bytes.status().code(), path + ": " + bytes.status().message());
-  return bytes;
-}
-
 StatusOr<v1::JobSpec> build_spec(SubmitArgs& a, uint64_t upload_bytes) {
   PipelineOptions& o = a.options;
   if (a.awlop_support == "paper") o.awlop.support = AwlopSupport::kPaper;
@@ -95,21 +77,6 @@ StatusOr<v1::JobSpec> build_spec(SubmitArgs& a, uint64_t upload_bytes) {
   spec.set_result_quantization_bits(uint32_t(a.result_quantization_bits));
   spec.set_device(a.device == "cpu" ? v1::DEVICE_CPU : a.device == "cuda" ? v1::DEVICE_CUDA : v1::DEVICE_ANY);
   return spec;
-}
-
-// Writes the spec and then the file in chunks. False when the server closed
-// the stream early (a refusal): its status then comes from Finish().
-template <class Writer>
-bool upload(Writer& writer, const v1::JobSpec& spec, const std::vector<uint8_t>& bytes) {
-  v1::RemeshRequest request;
-  *request.mutable_spec() = spec;
-  if (!writer.Write(request)) return false;
-  for (size_t offset = 0; offset < bytes.size(); offset += kChunkBytes) {
-    const size_t n = std::min(kChunkBytes, bytes.size() - offset);
-    request.set_mesh_chunk(bytes.data() + offset, n);
-    if (!writer.Write(request)) return false;
-  }
-  return writer.WritesDone();
 }
 
 int run_submit(SubmitArgs& a) {
@@ -204,6 +171,22 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, std::string& awlop_su
 }
 
 }  // namespace
+
+// The upload: a .drc file as it is (the server validates it), any other
+// format parsed here and encoded with sequential connectivity (speed 10),
+// which keeps every vertex and face in its order, so the server runs on
+// exactly what `vpremesh local` would (with lossless positions).
+StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits) {
+  VPR_ASSIGN_OR_RETURN(const MeshFormat format, format_from_path(path));
+  if (format == MeshFormat::kDraco) return read_bytes(path);
+  VPR_ASSIGN_OR_RETURN(const Mesh mesh, read_mesh(path));
+  DracoOptions draco;
+  draco.position_bits = quantization_bits;
+  draco.speed = 10;
+  auto bytes = encode_draco(mesh, nullptr, draco);
+  if (!bytes.ok()) return Status(bytes.status().code(), path + ": " + bytes.status().message());
+  return bytes;
+}
 
 void add_server_flags(CLI::App* cmd, std::string& server, double& deadline_s) {
   cmd->add_option("--server", server, "Server address host:port (or $VPREMESH_SERVER)")

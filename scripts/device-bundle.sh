@@ -6,6 +6,7 @@
 #   lib/     the non-system shared libraries they need (from ldd)
 #   build/   a pruned copy of the build tree that `ctest -L gpu` can run
 #   models/  the shared models the GPU tests and the benchmark read
+# and packs it into .pack/bundle.tar.gz, which is what the device tool carries.
 # Then scripts/device-run.sh runs on the device. Usage: scripts/device-bundle.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -49,4 +50,6 @@ for b in "${bins[@]}"; do ldd "$b"; done | awk '/=> \//{print $1, $3}' | sort -u
     [[ "$name" =~ $skip ]] || cp -L "$path" .bundle/lib/
   done
 for m in $MODELS; do cp "../shared/models/$m" .bundle/models/; done
-du -sh .bundle .bundle/* | sed 's/^/device-bundle: /'
+# The tool carries at most 64 MiB with the working tree: send it compressed.
+mkdir -p .pack && tar -czf .pack/bundle.tar.gz .bundle
+du -sh .bundle .pack/bundle.tar.gz | sed 's/^/device-bundle: /'

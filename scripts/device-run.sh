@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
 # Runs ON the device machine (NVIDIA H100), from the repository root, with
-# .bundle/ (scripts/device-bundle.sh) and .gl/ (the GL loader debs) carried:
-#   scripts/device-run.sh [tests|bench|all] [bench arguments...]
-# Writes under $OUT: device.txt, gpu-tests.log, bench.md.
+# .pack/ (scripts/device-bundle.sh) and .gl/ (the GL loader debs) carried:
+#   scripts/device-run.sh [tests|bench|all|suite|load] [bench arguments...]
+# Writes under $OUT: device.txt, gpu-tests.log, bench.md; `load` (not part of
+# all) writes load.md: vpremesh-server with --device cuda and 1, 2, 4 workers,
+# driven by `vpremesh bench` closed and open loop (scripts/bench-load.sh).
 set -uo pipefail
 mode=${1:-all}
 shift || true
 OUT=${OUT:-/tmp/out}
 mkdir -p "$OUT"
+[ -d .bundle ] || tar -xzf .pack/bundle.tar.gz
 for f in .gl/*.deb; do dpkg -x "$f" /; done
 ldconfig
 export LD_LIBRARY_PATH=$PWD/.bundle/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
@@ -34,4 +37,24 @@ if [ "$mode" = bench ] || [ "$mode" = all ]; then
   [ ${#args[@]} -gt 0 ] || args=("$M/igea.ply:10000" "$M/horse.ply:5000" "$M/bunny.obj:5000" "$M/kitten.obj:5000")
   .bundle/bin/vpremesh-bench "${args[@]}" 2>"$OUT/bench.err" | tee "$OUT/bench.md"
   tail -5 "$OUT/bench.err"
+fi
+if [ "$mode" = suite ]; then
+  # The measurements in docs/performance.md (GPU section), in one warm process each.
+  B=.bundle/bin/vpremesh-bench
+  M=.bundle/models
+  $B --device both --repeat 5 --peers all "$M/igea.ply:10000" "$M/horse.ply:5000" "$M/bunny.obj:5000" \
+    "$M/kitten.obj:5000" 2>>"$OUT/bench.err" | tee "$OUT/bench-models.md"
+  $B --device both --repeat 3 --peers "OpenMesh QEM,meshoptimizer" "$M/igea.ply@1M:20000" 2>>"$OUT/bench.err" |
+    tee "$OUT/bench-1m.md"
+  $B --device cuda --repeat 3 --peers none --concurrency 8 --jobs 32 "$M/horse.ply:5000" 2>>"$OUT/bench.err" |
+    tee "$OUT/bench-concurrency.md"
+  grep -v '\.\.\.$' "$OUT/bench.err" | tail -30
+fi
+if [ "$mode" = load ]; then
+  # About 3 minutes: runs that would start after BUDGET_S are skipped and listed.
+  BIN=.bundle/bin DEVICE=cuda WORKERS="${WORKERS:-1 2 4}" CLOSED="${CLOSED:-1 4 8}" REQUESTS=${REQUESTS:-16} \
+    OPEN_FACTORS="${OPEN_FACTORS:-0.9 1.5}" OPEN_S=${OPEN_S:-8} BUDGET_S=${BUDGET_S:-160} JSON_DIR="$OUT/load-json" \
+    MODELS="${MODELS:-.bundle/models/igea.ply:10000 .bundle/models/horse.ply:5000}" \
+    bash scripts/bench-load.sh 2>"$OUT/load.err" | tee "$OUT/load.md"
+  tail -5 "$OUT/load.err"
 fi

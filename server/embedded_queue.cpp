@@ -64,7 +64,7 @@ v1::JobStatus EmbeddedQueue::status_locked(const Record& r) const {
 }
 
 std::vector<std::shared_ptr<EmbeddedQueue::Slot>> EmbeddedQueue::append_locked(Record& r, v1::JobEvent event,
-                                                                                bool* state_changed) {
+                                                                               bool* state_changed) {
   *state_changed = false;
   if (r.state == v1::JOB_STATE_SUCCEEDED || r.state == v1::JOB_STATE_FAILED || r.state == v1::JOB_STATE_CANCELLED) {
     spdlog::warn("job {}: event after the job ended, dropped", r.id);
@@ -109,7 +109,8 @@ StatusOr<std::string> EmbeddedQueue::submit(JobSubmission job) {
   std::vector<std::shared_ptr<Slot>> slots;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    if (draining_ || closed_) return unavailable("the server is shutting down and accepts no new jobs; retry elsewhere");
+    if (draining_ || closed_)
+      return unavailable("the server is shutting down and accepts no new jobs; retry elsewhere");
     VPR_RETURN_IF_ERROR(check_queue_length(options_.limits, waiting_.size()));
     auto peer = unfinished_by_peer_.find(job.peer);
     VPR_RETURN_IF_ERROR(

@@ -15,9 +15,9 @@
 namespace vpr::service {
 
 struct EmbeddedQueueOptions {
-  ServerLimits limits;                     // max_queue and max_jobs_per_client apply here
+  ServerLimits limits;                                             // max_queue and max_jobs_per_client apply here
   std::chrono::milliseconds result_ttl{std::chrono::minutes(10)};  // --result-ttl
-  std::function<Clock::time_point()> now;  // null: Clock::now (tests pass a fake)
+  std::function<Clock::time_point()> now;                          // null: Clock::now (tests pass a fake)
   // Called on every state change (on the changing thread, no lock held):
   // metrics count jobs by state here.
   std::function<void(const std::string& job_id, v1::JobState state)> on_state;

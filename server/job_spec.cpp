@@ -39,8 +39,8 @@ Status float_field(const char* name, float value, float lo, bool lo_open, float 
   const bool below = hi_open ? value < hi : value <= hi;
   if (!std::isfinite(value) || !above || !below)
     return invalid_argument(std::string(name) + " is " + str(value) + "; it must be in " + (lo_open ? "(" : "[") +
-                            str(lo) + ", " + str(hi) + (hi_open ? ")" : "]") + " (0 = default " +
-                            str(default_value) + ")");
+                            str(lo) + ", " + str(hi) + (hi_open ? ")" : "]") + " (0 = default " + str(default_value) +
+                            ")");
   *out = value;
   return Status::Ok();
 }
@@ -96,8 +96,8 @@ Status pipeline_options_from_proto(const v1::PipelineOptions& p, PipelineOptions
 
   VPR_RETURN_IF_ERROR(float_field("options.mu", p.mu(), 0, false, 0.5f, false, d.awlop.mu, &o.awlop.mu));
   VPR_RETURN_IF_ERROR(int_field("options.awlop_k", p.awlop_k(), 1, 64, d.awlop.k, &o.awlop.k));
-  VPR_RETURN_IF_ERROR(int_field("options.awlop_iterations", p.awlop_iterations(), 1, 200, d.awlop.iterations,
-                                &o.awlop.iterations));
+  VPR_RETURN_IF_ERROR(
+      int_field("options.awlop_iterations", p.awlop_iterations(), 1, 200, d.awlop.iterations, &o.awlop.iterations));
   VPR_RETURN_IF_ERROR(int_field("options.awlop_samples", p.awlop_samples(), 1, 32,
                                 d.awlop.attraction_samples_per_target, &o.awlop.attraction_samples_per_target));
   switch (p.awlop_support()) {
@@ -111,8 +111,8 @@ Status pipeline_options_from_proto(const v1::PipelineOptions& p, PipelineOptions
       return invalid_argument("options.awlop_support is " + str(int(p.awlop_support())) +
                               "; it must be AWLOP_SUPPORT_TARGET (0) or AWLOP_SUPPORT_PAPER (1)");
   }
-  VPR_RETURN_IF_ERROR(float_field("options.awlop_h_factor", p.awlop_h_factor(), 0, true, 100, false,
-                                  d.awlop.h_factor, &o.awlop.h_factor));
+  VPR_RETURN_IF_ERROR(float_field("options.awlop_h_factor", p.awlop_h_factor(), 0, true, 100, false, d.awlop.h_factor,
+                                  &o.awlop.h_factor));
   return Status::Ok();
 }
 
@@ -128,8 +128,12 @@ Status job_options_from_spec(const v1::JobSpec& spec, JobOptions* out) {
   if (!v1::DevicePreference_IsValid(spec.device()))
     return invalid_argument("device is " + str(int(spec.device())) +
                             "; it must be DEVICE_ANY (0), DEVICE_CPU (1) or DEVICE_CUDA (2)");
-  if (spec.return_debug_images())
-    return invalid_argument("return_debug_images is not supported by this server yet");
+  // The pipeline returns neither (PipelineResult holds only the point count).
+  if (spec.return_saliency_points())
+    return invalid_argument(
+        "return_saliency_points is not supported by this server yet (only the count, in "
+        "`completed`)");
+  if (spec.return_debug_images()) return invalid_argument("return_debug_images is not supported by this server yet");
   JobOptions o;
   o.pipeline.target_vertices = spec.target_vertices();
   VPR_RETURN_IF_ERROR(pipeline_options_from_proto(spec.options(), &o.pipeline));

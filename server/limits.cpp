@@ -34,8 +34,9 @@ Status check_upload_complete(uint64_t received, uint64_t declared, const uint8_t
     return invalid_argument("received " + std::to_string(received) + " bytes but mesh_size_bytes declared " +
                             std::to_string(declared) + " (truncated or overlong upload)");
   if (head_size < 5 || std::memcmp(head, "DRACO", 5) != 0)
-    return invalid_argument("the upload is not a Draco file (it does not start with 'DRACO'); encode the mesh with "
-                            "Draco first");
+    return invalid_argument(
+        "the upload is not a Draco file (it does not start with 'DRACO'); encode the mesh with "
+        "Draco first");
   return Status::Ok();
 }
 
@@ -49,8 +50,9 @@ Status check_target(const ServerLimits& limits, uint32_t target_vertices) {
 
 Status check_queue_length(const ServerLimits& limits, size_t waiting) {
   if (waiting >= limits.max_queue)
-    return resource_exhausted("the job queue is full: " + std::to_string(waiting) + " jobs waiting, the queue limit is " +
-                              std::to_string(limits.max_queue) + " (--max-queue); retry later");
+    return resource_exhausted("the job queue is full: " + std::to_string(waiting) +
+                              " jobs waiting, the queue limit is " + std::to_string(limits.max_queue) +
+                              " (--max-queue); retry later");
   return Status::Ok();
 }
 

@@ -16,12 +16,12 @@ namespace vpr::service {
 inline constexpr size_t kMaxChunkBytes = size_t(1) << 20;
 
 struct ServerLimits {
-  uint64_t max_upload_bytes = uint64_t(512) << 20;      // --max-upload-mib 512
-  size_t max_vertices = MeshLimits{}.max_vertices;      // --max-vertices: input vertices
-  size_t max_faces = MeshLimits{}.max_faces;            // --max-faces: input faces
-  uint32_t max_target_vertices = kMaxTargetVertices;    // --max-target-vertices, at most the pipeline's
-  size_t max_queue = 64;                                // --max-queue: jobs waiting (not running)
-  size_t max_jobs_per_client = 4;                       // --max-jobs-per-client: unfinished jobs per connection
+  uint64_t max_upload_bytes = uint64_t(512) << 20;    // --max-upload-mib 512
+  size_t max_vertices = MeshLimits{}.max_vertices;    // --max-vertices: input vertices
+  size_t max_faces = MeshLimits{}.max_faces;          // --max-faces: input faces
+  uint32_t max_target_vertices = kMaxTargetVertices;  // --max-target-vertices, at most the pipeline's
+  size_t max_queue = 64;                              // --max-queue: jobs waiting (not running)
+  size_t max_jobs_per_client = 4;                     // --max-jobs-per-client: unfinished jobs per connection
 
   MeshLimits mesh_limits() const { return {max_vertices, max_faces}; }
 };

@@ -62,7 +62,7 @@ int run(const ServerOptions& o) {
   if (o.device != "cpu") gpus = int(cuda_devices(&no_gpu_why).size());
 #endif
   if (o.device == "cuda" && gpus == 0) return fail("--device cuda but no CUDA device is usable: " + no_gpu_why, 2);
-  const DevicePolicy policy = o.device == "cpu" ? DevicePolicy::kCpu
+  const DevicePolicy policy = o.device == "cpu"    ? DevicePolicy::kCpu
                               : o.device == "cuda" ? DevicePolicy::kCuda
                                                    : DevicePolicy::kAuto;
   // On the CPU one worker is enough: each stage already uses every core (TBB).
@@ -126,10 +126,11 @@ int run(const ServerOptions& o) {
   // The parseable line tests and scripts wait for.
   std::printf("vpremesh-server listening on %s:%d\n", host_of(o.listen).c_str(), port);
   std::fflush(stdout);
-  spdlog::info("listening on {}:{} with {} worker(s); limits: upload {} MiB, {} vertices, {} faces, queue {}, "
-               "{} jobs per client; results kept {} s",
-               host_of(o.listen), port, workers, o.limits.max_upload_bytes >> 20, o.limits.max_vertices,
-               o.limits.max_faces, o.limits.max_queue, o.limits.max_jobs_per_client, o.result_ttl_s);
+  spdlog::info(
+      "listening on {}:{} with {} worker(s); limits: upload {} MiB, {} vertices, {} faces, queue {}, "
+      "{} jobs per client; results kept {} s",
+      host_of(o.listen), port, workers, o.limits.max_upload_bytes >> 20, o.limits.max_vertices, o.limits.max_faces,
+      o.limits.max_queue, o.limits.max_jobs_per_client, o.result_ttl_s);
 
   MetricsHttpServer http;
   if (!o.metrics_listen.empty()) {
@@ -138,8 +139,7 @@ int run(const ServerOptions& o) {
       return registry.render();
     });
     if (!metrics_port.ok()) return fail(metrics_port.status().message(), 2);
-    std::printf("vpremesh-server metrics on http://%s:%d/metrics\n", host_of(o.metrics_listen).c_str(),
-                *metrics_port);
+    std::printf("vpremesh-server metrics on http://%s:%d/metrics\n", host_of(o.metrics_listen).c_str(), *metrics_port);
     std::fflush(stdout);
   }
 
@@ -166,7 +166,7 @@ int run(const ServerOptions& o) {
       spdlog::warn("a job did not reach a stage boundary within 10 s of cancellation");
   }
   // Let open streams send their last events, then end them.
-  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
+  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
   http.stop();
   queue.close();
   if (pool.busy() > 0) {

@@ -138,7 +138,10 @@ std::string MetricsRegistry::render() const {
     for (char c : f.help) help += c == '\n' ? std::string("\\n") : c == '\\' ? std::string("\\\\") : std::string(1, c);
     out += "# HELP " + name + " " + help + "\n";
     out += "# TYPE " + name + " " +
-           (f.type == Type::kCounter ? "counter" : f.type == Type::kGauge ? "gauge" : "histogram") + "\n";
+           (f.type == Type::kCounter ? "counter"
+            : f.type == Type::kGauge ? "gauge"
+                                     : "histogram") +
+           "\n";
     for (const auto& [key, labels] : f.labels) {
       if (f.type == Type::kCounter) {
         out += name + key + " " + format_value(f.counters.at(key)->value()) + "\n";

@@ -42,8 +42,7 @@ class Upload {
     if (!have_spec_) return bad("the first RemeshRequest must carry the spec, not a mesh_chunk");
     const std::string& chunk = request.mesh_chunk();
     if (Status s = check_chunk(chunk.size()); !s.ok()) return to_grpc(s);
-    if (Status s = check_upload_size(limits, submission_.mesh.size() + chunk.size(), false); !s.ok())
-      return to_grpc(s);
+    if (Status s = check_upload_size(limits, submission_.mesh.size() + chunk.size(), false); !s.ok()) return to_grpc(s);
     const uint64_t declared = submission_.spec.mesh_size_bytes();
     if (declared != 0 && submission_.mesh.size() + chunk.size() > declared)
       return bad("more bytes arrived than mesh_size_bytes declared (" + std::to_string(declared) + ")");
@@ -335,11 +334,11 @@ grpc::ServerUnaryReactor* RemeshServiceImpl::GetJob(grpc::CallbackServerContext*
   return reactor;
 }
 
-grpc::ServerUnaryReactor* RemeshServiceImpl::CancelJob(grpc::CallbackServerContext* context,
-                                                       const v1::JobRef* request, v1::JobStatus* response) {
+grpc::ServerUnaryReactor* RemeshServiceImpl::CancelJob(grpc::CallbackServerContext* context, const v1::JobRef* request,
+                                                       v1::JobStatus* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  auto status = queue_.cancel(request->job_id(), Status(StatusCode::kCancelled, "cancelled by CancelJob from " +
-                                                                                   context->peer()));
+  auto status = queue_.cancel(request->job_id(),
+                              Status(StatusCode::kCancelled, "cancelled by CancelJob from " + context->peer()));
   if (status.ok()) *response = *status;
   reactor->Finish(to_grpc(status.status()));
   return reactor;

@@ -46,17 +46,28 @@ void add_server_options(CLI::App& app, ServerOptions* o) {
   app.add_option("--max-queue", o->limits.max_queue, "Most jobs waiting; more are RESOURCE_EXHAUSTED")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  app.add_option("--max-jobs-per-client", o->limits.max_jobs_per_client,
-                 "Most unfinished jobs per client connection")
+  app.add_option("--max-jobs-per-client", o->limits.max_jobs_per_client, "Most unfinished jobs per client connection")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
 }
 
+namespace {
+
+// HOST:PORT with PORT in [0, 65535] (gRPC would quietly wrap a larger one).
+Status check_address(const std::string& flag, const std::string& address) {
+  const size_t colon = address.rfind(':');
+  const std::string port = colon == std::string::npos ? "" : address.substr(colon + 1);
+  const bool digits = !port.empty() && port.size() <= 5 && port.find_first_not_of("0123456789") == std::string::npos;
+  if (colon == 0 || !digits || std::stoi(port) > 65535)
+    return invalid_argument(flag + " '" + address + "' must be HOST:PORT with PORT in [0, 65535]");
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status check_server_options(const ServerOptions& o) {
-  if (o.listen.empty() || o.listen.find(':') == std::string::npos)
-    return invalid_argument("--listen '" + o.listen + "' must be HOST:PORT");
-  if (!o.metrics_listen.empty() && o.metrics_listen.find(':') == std::string::npos)
-    return invalid_argument("--metrics-listen '" + o.metrics_listen + "' must be HOST:PORT");
+  VPR_RETURN_IF_ERROR(check_address("--listen", o.listen));
+  if (!o.metrics_listen.empty()) VPR_RETURN_IF_ERROR(check_address("--metrics-listen", o.metrics_listen));
   if (o.limits.max_target_vertices < kMinTargetVertices || o.limits.max_target_vertices > kMaxTargetVertices)
     return invalid_argument("--max-target-vertices must be in [" + std::to_string(kMinTargetVertices) + ", " +
                             std::to_string(kMaxTargetVertices) + "]");

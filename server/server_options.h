@@ -10,13 +10,13 @@ namespace vpr::service {
 
 struct ServerOptions {
   std::string listen = "0.0.0.0:50051";  // --listen; PORT 0 picks a free port (printed at startup)
-  int workers = 0;                        // --workers; 0: one per GPU, or 1 on a CPU-only machine
-  std::string device = "auto";            // --device auto|cpu|cuda
-  std::string renderer = "auto";          // --renderer auto|egl|osmesa
-  std::string metrics_listen;             // --metrics-listen HOST:PORT; empty: no metrics endpoint
-  double result_ttl_s = 600;              // --result-ttl: how long finished jobs stay watchable
-  double drain_grace_s = 30;              // --drain-grace: SIGTERM waits this long for running jobs
-  std::string log_level = "info";         // --log-level
+  int workers = 0;                       // --workers; 0: one per GPU, or 1 on a CPU-only machine
+  std::string device = "auto";           // --device auto|cpu|cuda
+  std::string renderer = "auto";         // --renderer auto|egl|osmesa
+  std::string metrics_listen;            // --metrics-listen HOST:PORT; empty: no metrics endpoint
+  double result_ttl_s = 600;             // --result-ttl: how long finished jobs stay watchable
+  double drain_grace_s = 30;             // --drain-grace: SIGTERM waits this long for running jobs
+  std::string log_level = "info";        // --log-level
   ServerLimits limits;
 };
 

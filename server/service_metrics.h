@@ -29,12 +29,11 @@ struct ServiceMetrics {
                             {{"state", state_name(s)}});
   }
   Histogram& stage_seconds(const std::string& stage) {
-    return registry.histogram("vpremesh_stage_duration_seconds", "Wall time of one pipeline stage of one job",
-                              kBuckets, {{"stage", stage}});
+    return registry.histogram("vpremesh_stage_duration_seconds", "Wall time of one pipeline stage of one job", kBuckets,
+                              {{"stage", stage}});
   }
   Histogram& job_seconds() {
-    return registry.histogram("vpremesh_job_duration_seconds", "Submission to completion of successful jobs",
-                              kBuckets);
+    return registry.histogram("vpremesh_job_duration_seconds", "Submission to completion of successful jobs", kBuckets);
   }
   void set_queue(const QueueStats& s) {
     queue_length.set(double(s.queued));

@@ -23,7 +23,7 @@ inline constexpr size_t kFloatsPerChunk = kMaxChunkBytes / sizeof(float);
 
 // What one worker runs a job with.
 struct WorkerContext {
-  std::string name;           // "host:pid/worker-0"
+  std::string name;            // "host:pid/worker-0"
   std::string device = "cpu";  // "cpu" or "cuda:0 <name>", for `started` events
   Renderer* renderer = nullptr;
   DevicePolicy device_policy = DevicePolicy::kCpu;

@@ -2,9 +2,8 @@
 // the limits it enforces. No timing: the clock is a variable.
 #include "server/embedded_queue.h"
 
-#include <gtest/gtest.h>
-
 #include <grpcpp/support/status.h>
+#include <gtest/gtest.h>
 
 #include <thread>
 

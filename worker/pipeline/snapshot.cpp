@@ -12,14 +12,16 @@
 #include "snapshot.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <array>
+#include <numeric>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
-#include <unordered_map>
 
 #include "gl_functions.h"
 #include "vec3.h"
@@ -81,31 +83,46 @@ Vec3d unit(Vec3d v) {
 // area_normals (cross products, length = 2 area) are theirs. Returns #K x 3.
 std::vector<Vec3> corner_normals(const Mesh& mesh, const std::vector<uint32_t>& kept_faces,
                                  const std::vector<Vec3>& face_normals, const std::vector<Vec3d>& area_normals) {
-  struct Key {
-    uint32_t x, y, z;
-    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
-  };
-  struct KeyHash {
-    size_t operator()(const Key& k) const {
-      return (size_t(k.x) * 73856093u) ^ (size_t(k.y) * 19349663u) ^ (size_t(k.z) * 83492791u);
-    }
-  };
   const size_t nv = mesh.vertex_count(), nk = kept_faces.size();
-  std::unordered_map<Key, uint32_t, KeyHash> ids;
-  ids.reserve(nv);
-  std::vector<uint32_t> weld(nv);
-  for (size_t v = 0; v < nv; ++v) {
+  // Weld by exact position, in parallel: vertex ids sorted by their coordinate
+  // bits (ties by id); each run of equal positions is one welded vertex.
+  using Key = std::array<uint32_t, 3>;
+  auto key = [&](uint32_t v) {
     Key k;
-    std::memcpy(&k, &mesh.positions[3 * v], sizeof k);
-    weld[v] = ids.emplace(k, uint32_t(ids.size())).first->second;
+    std::memcpy(k.data(), &mesh.positions[3 * size_t(v)], sizeof k);
+    return k;
+  };
+  std::vector<uint32_t> order(nv);
+  std::iota(order.begin(), order.end(), 0u);
+  tbb::parallel_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    const Key ka = key(a), kb = key(b);
+    return ka != kb ? ka < kb : a < b;
+  });
+  std::vector<uint32_t> weld(nv);
+  uint32_t groups = 0;
+  for (size_t i = 0; i < nv; ++i) {
+    if (i > 0 && key(order[i]) != key(order[i - 1])) ++groups;
+    weld[order[i]] = groups;
   }
-  // Faces around each welded vertex (CSR), in face order: a fixed summation order.
-  std::vector<uint32_t> start(ids.size() + 1, 0), faces(3 * nk);
+  if (nv > 0) ++groups;
+  order = {};
+
+  // Faces around each welded vertex (CSR), each list in face order: a fixed
+  // summation order whatever the thread count (filled in parallel, then sorted).
   auto corner_vertex = [&](size_t c) { return weld[mesh.indices[3 * size_t(kept_faces[c / 3]) + c % 3]]; };
-  for (size_t c = 0; c < 3 * nk; ++c) ++start[corner_vertex(c) + 1];
-  for (size_t v = 0; v < ids.size(); ++v) start[v + 1] += start[v];
+  std::vector<uint32_t> start(size_t(groups) + 1, 0), faces(3 * nk);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t c = r.begin(); c < r.end(); ++c) __atomic_fetch_add(&start[corner_vertex(c) + 1], 1u, __ATOMIC_RELAXED);
+  });
+  for (size_t v = 0; v < groups; ++v) start[v + 1] += start[v];
   std::vector<uint32_t> fill(start.begin(), start.end() - 1);
-  for (size_t c = 0; c < 3 * nk; ++c) faces[fill[corner_vertex(c)]++] = uint32_t(c / 3);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t c = r.begin(); c < r.end(); ++c)
+      faces[__atomic_fetch_add(&fill[corner_vertex(c)], 1u, __ATOMIC_RELAXED)] = uint32_t(c / 3);
+  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, groups, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v < r.end(); ++v) std::sort(faces.begin() + start[v], faces.begin() + start[v + 1]);
+  });
 
   const float min_cos = float(std::cos(kSmoothingAngleDeg * M_PI / 180.0));
   std::vector<Vec3> out(3 * nk);

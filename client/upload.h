@@ -1,0 +1,41 @@
+// The upload half of the Remesh and Submit calls, shared by `vpremesh submit`
+// and `vpremesh bench`: the input as the Draco file the service takes, and
+// the stream that carries it (the spec first, then chunks of at most 1 MiB).
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "pipeline/status.h"
+#include "vpremesh/v1/remesh.pb.h"
+
+namespace vpr::cli {
+
+// The API's chunk limit (remesh.proto: "at most 1 MiB each").
+inline constexpr size_t kChunkBytes = size_t(1) << 20;
+
+// The bytes to upload for `path` (defined in submit_command.cpp): a .drc file
+// as it is (the server validates it); any other format parsed here and encoded
+// with sequential connectivity, which keeps every vertex and face in its
+// order. quantization_bits: Draco position bits, 0 = lossless.
+StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits);
+
+// Writes the spec and then the file in chunks. False when the server closed
+// the stream early (a refusal): its status then comes from Finish().
+template <class Writer>
+bool upload(Writer& writer, const vpremesh::v1::JobSpec& spec, const std::vector<uint8_t>& bytes) {
+  vpremesh::v1::RemeshRequest request;
+  *request.mutable_spec() = spec;
+  if (!writer.Write(request)) return false;
+  for (size_t offset = 0; offset < bytes.size(); offset += kChunkBytes) {
+    const size_t n = std::min(kChunkBytes, bytes.size() - offset);
+    request.set_mesh_chunk(bytes.data() + offset, n);
+    if (!writer.Write(request)) return false;
+  }
+  return writer.WritesDone();
+}
+
+}  // namespace vpr::cli

@@ -1,0 +1,83 @@
+// vpremesh-server's flags: defaults, the MiB flag and address checks.
+#include "server/server_options.h"
+
+#include <gtest/gtest.h>
+
+namespace vpr::service {
+namespace {
+
+ServerOptions parse(std::vector<std::string> args) {
+  ServerOptions o;
+  CLI::App app;
+  add_server_options(app, &o);
+  std::reverse(args.begin(), args.end());
+  app.parse(args);
+  return o;
+}
+
+TEST(ServerOptions, FlagsReachTheLimits) {
+  const ServerOptions o = parse({"--listen",
+                                 "127.0.0.1:0",
+                                 "--max-upload-mib",
+                                 "3",
+                                 "--max-vertices",
+                                 "10",
+                                 "--max-faces",
+                                 "20",
+                                 "--max-queue",
+                                 "5",
+                                 "--max-jobs-per-client",
+                                 "2",
+                                 "--max-target-vertices",
+                                 "5000",
+                                 "--result-ttl",
+                                 "1.5",
+                                 "--drain-grace",
+                                 "4",
+                                 "--workers",
+                                 "3",
+                                 "--device",
+                                 "cpu",
+                                 "--metrics-listen",
+                                 "127.0.0.1:9464"});
+  EXPECT_EQ(o.limits.max_upload_bytes, uint64_t(3) << 20);
+  EXPECT_EQ(o.limits.max_vertices, 10u);
+  EXPECT_EQ(o.limits.max_faces, 20u);
+  EXPECT_EQ(o.limits.max_queue, 5u);
+  EXPECT_EQ(o.limits.max_jobs_per_client, 2u);
+  EXPECT_EQ(o.limits.max_target_vertices, 5000u);
+  EXPECT_EQ(o.result_ttl_s, 1.5);
+  EXPECT_EQ(o.drain_grace_s, 4);
+  EXPECT_EQ(o.workers, 3);
+  EXPECT_EQ(o.device, "cpu");
+  EXPECT_TRUE(check_server_options(o).ok());
+}
+
+TEST(ServerOptions, DefaultsKeepTheLibraryLimits) {
+  const ServerOptions o = parse({});
+  EXPECT_EQ(o.limits.max_upload_bytes, ServerLimits{}.max_upload_bytes);
+  EXPECT_EQ(o.workers, 0);
+  EXPECT_EQ(o.device, "auto");
+}
+
+TEST(ServerOptions, AddressesNeedAPortInRange) {
+  for (const char* bad : {"nonsense", "127.0.0.1:99999", "127.0.0.1:", ":50051", "127.0.0.1:x"}) {
+    ServerOptions o;
+    o.listen = bad;
+    const Status s = check_server_options(o);
+    EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << bad;
+    EXPECT_NE(s.message().find("--listen"), std::string::npos);
+  }
+  ServerOptions o;
+  o.listen = "[::]:0";
+  EXPECT_TRUE(check_server_options(o).ok());
+  o.metrics_listen = "9464";
+  EXPECT_NE(check_server_options(o).message().find("--metrics-listen"), std::string::npos);
+}
+
+TEST(ServerOptions, UnknownDeviceIsAParseError) {
+  EXPECT_THROW(parse({"--device", "tpu"}), CLI::ValidationError);
+}
+
+}  // namespace
+}  // namespace vpr::service
