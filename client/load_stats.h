@@ -50,7 +50,9 @@ struct LoadReport {
   Percentiles queue;                                  // Started.queue_ms of completed requests
   // The mean latency of completed requests, split; the parts add up to
   // latency.mean. server_other: run_ms less the stages (decode, encode);
-  // transfer_other: what is left (result transfer, gRPC, the client).
+  // transfer_other: what is left (result transfer, gRPC, the client); it
+  // may dip a few ms below zero, as the client's and the server's clocks
+  // overlap (the last upload write can return after the server queued the job).
   double lag_ms = 0, upload_ms = 0, queue_ms = 0, stages_ms = 0, server_other_ms = 0, transfer_other_ms = 0;
   std::vector<std::pair<std::string, double>> stage_means;  // per stage, in the order the server runs them
   double result_bytes_mean = 0;
