@@ -44,18 +44,23 @@ cells += [f"{s[k]:.0f}" for k in ("upload", "queue", "stages", "server_other", "
 print("| " + " | ".join(str(c) for c in cells) + " |")
 EOF
 }
-stage_row() {
+# The per-stage means of the given runs (WORKERS MODEL JSON triples), one row each.
+stage_table() {
   python3 - "$@" <<'EOF'
 import json, sys
-workers, model, path = sys.argv[1], sys.argv[2], sys.argv[3]
-j = json.load(open(path))
-print(f"| {workers} | {model} | " + " | ".join(f"{n} {j['stages_ms'][n]:.0f}" for n in j["stage_order"]) + " |")
+runs = [sys.argv[i:i + 3] for i in range(1, len(sys.argv), 3)]
+order = json.load(open(runs[0][2]))["stage_order"]
+print("| workers | model | " + " | ".join(order) + " |")
+print("|---|---|" + "---|" * len(order))
+for workers, model, path in runs:
+    stages = json.load(open(path))["stages_ms"]
+    print(f"| {workers} | {model} | " + " | ".join(f"{stages.get(n, 0):.0f}" for n in order) + " |")
 EOF
 }
 
 echo "| workers | model | loop | load | requests | completed | errors | completed/s | p50 ms | p90 | p99 | p99.9 | max | mean | upload | queue | stages | decode+encode | transfer+other |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-stage_rows=()
+stage_runs=()
 skipped=()
 for w in $WORKERS; do
   log="$JSON_DIR/server-w$w.log"
@@ -82,7 +87,7 @@ for w in $WORKERS; do
       last_closed=$out
       capacity=$(python3 -c "import json,sys; print(max($capacity, json.load(open('$out'))['throughput_per_s']))")
     done
-    [ -n "${last_closed:-}" ] && stage_rows+=("$(stage_row "$w" "$name:$target" "$last_closed")")
+    [ -n "$last_closed" ] && stage_runs+=("$w" "$name:$target" "$last_closed")
     for f in $OPEN_FACTORS; do
       if [ $((SECONDS - t0)) -ge "$BUDGET_S" ] || [ "$capacity" = 0 ]; then
         skipped+=("W=$w $name open x$f")
@@ -100,9 +105,7 @@ done
 echo
 echo "Mean stage times (ms) at the largest closed-loop concurrency:"
 echo
-echo "| workers | model | stages |"
-echo "|---|---|---|"
-for r in "${stage_rows[@]}"; do echo "$r"; done
+[ ${#stage_runs[@]} -eq 0 ] || stage_table "${stage_runs[@]}"
 [ ${#skipped[@]} -eq 0 ] || printf '\nSkipped (over BUDGET_S=%s s): %s\n' "$BUDGET_S" "$(IFS=,; echo "${skipped[*]}")"
 echo
 echo "JSON of every run: $JSON_DIR; $((SECONDS - t0)) s in all."

@@ -53,7 +53,7 @@ fi
 if [ "$mode" = load ]; then
   # About 3 minutes: runs that would start after BUDGET_S are skipped and listed.
   BIN=.bundle/bin DEVICE=cuda WORKERS="${WORKERS:-1 2 4}" CLOSED="${CLOSED:-1 4 8}" REQUESTS=${REQUESTS:-16} \
-    OPEN_FACTORS="${OPEN_FACTORS:-0.9 1.5}" OPEN_S=${OPEN_S:-8} BUDGET_S=${BUDGET_S:-160} JSON_DIR="$OUT/load-json" \
+    OPEN_FACTORS="${OPEN_FACTORS:-0.9 1.5}" OPEN_S=${OPEN_S:-8} BUDGET_S=${BUDGET_S:-160} JSON_DIR="${JSON_DIR:-/tmp/load-json}" \
     MODELS="${MODELS:-.bundle/models/igea.ply:10000 .bundle/models/horse.ply:5000}" \
     bash scripts/bench-load.sh 2>"$OUT/load.err" | tee "$OUT/load.md"
   tail -5 "$OUT/load.err"

@@ -86,6 +86,7 @@ int run(const ServerOptions& o) {
   wo.device = policy;
   wo.renderer = *renderer;
   wo.cuda_devices = policy == DevicePolicy::kCpu ? 0 : gpus;
+  wo.gpu_job_bytes = o.gpu_job_mib << 20;
   wo.limits = o.limits;
   WorkerPool pool(queue, wo, &metrics);
   // On every return: wake the workers so the pool's destructor can join them.

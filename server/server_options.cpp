@@ -24,6 +24,11 @@ void add_server_options(CLI::App& app, ServerOptions* o) {
   app.add_option("--drain-grace", o->drain_grace_s, "Seconds SIGTERM waits for running jobs before cancelling them")
       ->check(CLI::Range(0.0, 86400.0))
       ->capture_default_str();
+  app.add_option("--gpu-memory-per-job", o->gpu_job_mib,
+                 "MiB of GPU memory one job may hold (0: the GPU's memory / the workers sharing it); "
+                 "a stage that would need more reruns on the CPU")
+      ->check(CLI::Range(size_t(0), size_t(1) << 30))
+      ->capture_default_str();
   app.add_option("--log-level", o->log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();

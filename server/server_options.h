@@ -16,6 +16,7 @@ struct ServerOptions {
   std::string metrics_listen;            // --metrics-listen HOST:PORT; empty: no metrics endpoint
   double result_ttl_s = 600;             // --result-ttl: how long finished jobs stay watchable
   double drain_grace_s = 30;             // --drain-grace: SIGTERM waits this long for running jobs
+  size_t gpu_job_mib = 0;                // --gpu-memory-per-job: device memory budget of one job (0: GPU / workers on it)
   std::string log_level = "info";        // --log-level
   ServerLimits limits;
 };

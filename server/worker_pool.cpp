@@ -72,6 +72,11 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
               : options.device == v1::DEVICE_CUDA ? DevicePolicy::kCuda
                                                   : ctx.device_policy;
   po.cuda_device = ctx.cuda_device;
+  DeviceBudget budget;  // this job's device memory, released with the job
+  if (ctx.gpu_job_bytes > 0) {
+    budget.limit = ctx.gpu_job_bytes;
+    po.device_budget = &budget;
+  }
   po.keep_going = [&]() { return !stopped(); };
   // Stage events go out live, as each stage ends.
   po.on_stage = [&](const StageTiming& t) {
@@ -190,7 +195,14 @@ void WorkerPool::worker_main(int index) {
 #ifdef VPR_HAVE_CUDA
     std::string why;
     const std::vector<CudaDeviceInfo> gpus = cuda_devices(&why);
-    if (size_t(ctx.cuda_device) < gpus.size()) ctx.device += " " + gpus[size_t(ctx.cuda_device)].name;
+    if (size_t(ctx.cuda_device) < gpus.size()) {
+      ctx.device += " " + gpus[size_t(ctx.cuda_device)].name;
+      // Workers sharing this GPU split its memory unless a budget was given.
+      const int sharing = (options_.workers + options_.cuda_devices - 1 - ctx.cuda_device) / options_.cuda_devices;
+      ctx.gpu_job_bytes = options_.gpu_job_bytes > 0
+                              ? options_.gpu_job_bytes
+                              : gpus[size_t(ctx.cuda_device)].total_memory / size_t(std::max(sharing, 1));
+    }
     if (Status s = init_cuda_device(ctx.cuda_device); !s.ok())
       spdlog::warn("{}: cannot initialise {}: {}", ctx.name, ctx.device, s.message());
 #endif

@@ -28,6 +28,10 @@ struct WorkerContext {
   Renderer* renderer = nullptr;
   DevicePolicy device_policy = DevicePolicy::kCpu;
   int cuda_device = 0;
+  // Device memory one job may hold (bytes; 0 = no limit). Several workers share
+  // a GPU, each job on its own stream; the budget keeps them inside its memory,
+  // and a stage that would pass it reruns on the CPU.
+  size_t gpu_job_bytes = 0;
   ServerLimits limits;
   ServiceMetrics* metrics = nullptr;  // may be null
 };
@@ -43,6 +47,7 @@ struct WorkerPoolOptions {
   DevicePolicy device = DevicePolicy::kAuto;
   RendererKind renderer = RendererKind::kAuto;
   int cuda_devices = 0;  // GPUs to spread workers over (0: none)
+  size_t gpu_job_bytes = 0;  // per-job device memory budget (0: device memory / workers sharing it)
   ServerLimits limits;
 };
 
