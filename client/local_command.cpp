@@ -10,17 +10,17 @@
 #include "commands.h"
 #include "exit_codes.h"
 #include "io/mesh_io.h"
+#include "pipeline_flags.h"
 #include "stage_table.h"
 
 namespace vpr::cli {
 namespace {
 
 struct LocalArgs {
-  std::string input, output, field_out, renderer = "auto", awlop_support = "target";
+  std::string input, output, field_out, renderer = "auto";
   bool json = false;
   int threads = 0;
-  bool no_pca = false;
-  std::vector<double> rotation;
+  PipelineFlagValues flags;
   PipelineOptions options;
 };
 
@@ -42,14 +42,7 @@ int run_local(LocalArgs& a) {
   auto renderer = parse_renderer_kind(a.renderer);
   if (!renderer.ok()) return fail(renderer.status());
   o.renderer = *renderer;
-  if (a.awlop_support == "paper") o.awlop.support = AwlopSupport::kPaper;
-  o.views.pca_align = !a.no_pca;
-  if (!a.rotation.empty()) {
-    if (a.rotation.size() != 9) return fail(invalid_argument("--rotation needs 9 numbers (row-major 3x3)"));
-    std::array<double, 9> r{};
-    for (int i = 0; i < 9; ++i) r[i] = a.rotation[i];
-    o.views.user_rotation = r;
-  }
+  if (Status s = apply_pipeline_flags(a.flags, &o); !s.ok()) return fail(s);
   if (Status s = validate_options(o); !s.ok()) return fail(s);
   // Check the output format before hours of work are spent.
   if (auto f = format_from_path(a.output); !f.ok()) return fail(f.status());
@@ -90,40 +83,12 @@ Command add_local_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("local", "Remesh a file in this process (no server)");
   cmd->add_option("input", args->input, "Input mesh (.drc .obj .ply .off .stl)")->required();
   cmd->add_option("-o,--output", args->output, "Output mesh (.drc .ply .obj)")->required();
-  cmd->add_option("-n,--target-vertices", o.target_vertices, "Output vertex count (within 2%)")->required();
-  cmd->add_option("--views", o.views.count, "Number of views: 6 (axes) or 14 (axes + diagonals)")
-      ->check(CLI::IsMember({6, 14}))
-      ->capture_default_str();
-  cmd->add_option("--resolution", o.views.resolution, "Snapshot resolution in pixels")->capture_default_str();
-  cmd->add_option("--seed", o.sampling.seed, "Random seed of the sampler")->capture_default_str();
+  add_pipeline_flags(cmd, o, args->flags);
   cmd->add_option("--renderer", args->renderer, "auto, egl or osmesa")->capture_default_str();
   cmd->add_option("--field-out", args->field_out, "Write the input mesh colored by its saliency field (.ply)");
   cmd->add_option("--debug-dir", o.debug_dir, "Write per-view snapshots, feature images and points here");
   cmd->add_flag("--json", args->json, "Print a JSON report instead of the table");
   cmd->add_option("--threads", args->threads, "Worker threads (0 = all cores)")->capture_default_str();
-  cmd->add_flag("--no-pca", args->no_pca, "Use the model's own axes instead of its principal axes");
-  cmd->add_option("--rotation", args->rotation, "User rotation, 9 numbers (row-major 3x3)")->expected(9);
-  // The paper's constants (Sections III-V), each with its default.
-  cmd->add_option("--median-size", o.image.median_size, "Median pre-filter window")->capture_default_str();
-  cmd->add_option("--gaussian-size", o.image.gaussian_size, "Eq. (1) Gaussian window n")->capture_default_str();
-  cmd->add_option("--gaussian-sigma", o.image.gaussian_sigma, "Eq. (1) Gaussian sigma")->capture_default_str();
-  cmd->add_option("--threshold-c", o.image.threshold_c, "Eq. (3) threshold C")->capture_default_str();
-  cmd->add_option("--skeleton-lambda", o.image.skeleton_lambda, "Eq. (5) lambda")->capture_default_str();
-  cmd->add_option("--thin-feature-px", o.image.thin_feature_px, "Thin feature size at 512 px")->capture_default_str();
-  cmd->add_option("--knn", o.field.k, "Algorithm 1: k of the k-NN graph")->capture_default_str();
-  cmd->add_option("--beta", o.field.beta, "Algorithm 1: I = beta^depth")->capture_default_str();
-  cmd->add_option("--min-importance", o.field.min_importance, "Floor of the importance")->capture_default_str();
-  cmd->add_option("--depth-scale", o.field.depth_scale, "Field depth per output spacing (0 = automatic)")
-      ->capture_default_str();
-  cmd->add_option("--mu", o.awlop.mu, "Eq. (17) repulsion strength")->capture_default_str();
-  cmd->add_option("--awlop-samples", o.awlop.attraction_samples_per_target,
-                  "Surface samples AWLOP attracts to, per target vertex")
-      ->capture_default_str();
-  cmd->add_option("--awlop-k", o.awlop.k, "AWLOP neighbours")->capture_default_str();
-  cmd->add_option("--awlop-iterations", o.awlop.iterations, "AWLOP iterations")->capture_default_str();
-  cmd->add_option("--awlop-support", args->awlop_support, "h from 'target' spacing or 'paper' (input edges)")
-      ->check(CLI::IsMember({"target", "paper"}))
-      ->capture_default_str();
   return [args]() { return run_local(*args); };
 }
 

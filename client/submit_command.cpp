@@ -18,6 +18,7 @@
 #include "grpc_errors.h"
 #include "io/mesh_io.h"
 #include "job_events.h"
+#include "pipeline_flags.h"
 #include "server/job_spec.h"
 #include "upload.h"
 #include "vpremesh/v1/remesh.grpc.pb.h"
@@ -29,9 +30,9 @@ namespace v1 = vpremesh::v1;
 namespace {
 
 struct SubmitArgs {
-  std::string input, output, field_out, server, label, device = "any", awlop_support = "target";
-  bool json = false, no_wait = false, no_pca = false;
-  std::vector<double> rotation;
+  std::string input, output, field_out, server, label, device = "any";
+  bool json = false, no_wait = false;
+  PipelineFlagValues flags;
   int quantization_bits = 0;         // upload: 0 = lossless
   int result_quantization_bits = 0;  // 0 = 14 bits, the same file as `vpremesh local -o out.drc`
   int priority = 0;
@@ -59,14 +60,7 @@ StatusOr<std::vector<uint8_t>> read_bytes(const std::string& path) {
 
 StatusOr<v1::JobSpec> build_spec(SubmitArgs& a, uint64_t upload_bytes) {
   PipelineOptions& o = a.options;
-  if (a.awlop_support == "paper") o.awlop.support = AwlopSupport::kPaper;
-  o.views.pca_align = !a.no_pca;
-  if (!a.rotation.empty()) {
-    if (a.rotation.size() != 9) return invalid_argument("--rotation needs 9 numbers (row-major 3x3)");
-    std::array<double, 9> r{};
-    for (int i = 0; i < 9; ++i) r[i] = a.rotation[i];
-    o.views.user_rotation = r;
-  }
+  VPR_RETURN_IF_ERROR(apply_pipeline_flags(a.flags, &o));
   VPR_RETURN_IF_ERROR(validate_options(o));
   VPR_ASSIGN_OR_RETURN(v1::JobSpec spec, service::make_job_spec(o));
   spec.set_mesh_size_bytes(upload_bytes);
@@ -137,39 +131,6 @@ int run_submit(SubmitArgs& a) {
   return finish_job(outcome, outputs, a.server);
 }
 
-// The pipeline flags of `vpremesh local`, the same names and defaults.
-void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, std::string& awlop_support, bool& no_pca,
-                        std::vector<double>& rotation) {
-  cmd->add_option("-n,--target-vertices", o.target_vertices, "Output vertex count (within 2%)")->required();
-  cmd->add_option("--views", o.views.count, "Number of views: 6 (axes) or 14 (axes + diagonals)")
-      ->check(CLI::IsMember({6, 14}))
-      ->capture_default_str();
-  cmd->add_option("--resolution", o.views.resolution, "Snapshot resolution in pixels")->capture_default_str();
-  cmd->add_option("--seed", o.sampling.seed, "Random seed of the sampler")->capture_default_str();
-  cmd->add_flag("--no-pca", no_pca, "Use the model's own axes instead of its principal axes");
-  cmd->add_option("--rotation", rotation, "User rotation, 9 numbers (row-major 3x3)")->expected(9);
-  cmd->add_option("--median-size", o.image.median_size, "Median pre-filter window")->capture_default_str();
-  cmd->add_option("--gaussian-size", o.image.gaussian_size, "Eq. (1) Gaussian window n")->capture_default_str();
-  cmd->add_option("--gaussian-sigma", o.image.gaussian_sigma, "Eq. (1) Gaussian sigma")->capture_default_str();
-  cmd->add_option("--threshold-c", o.image.threshold_c, "Eq. (3) threshold C")->capture_default_str();
-  cmd->add_option("--skeleton-lambda", o.image.skeleton_lambda, "Eq. (5) lambda")->capture_default_str();
-  cmd->add_option("--thin-feature-px", o.image.thin_feature_px, "Thin feature size at 512 px")->capture_default_str();
-  cmd->add_option("--knn", o.field.k, "Algorithm 1: k of the k-NN graph")->capture_default_str();
-  cmd->add_option("--beta", o.field.beta, "Algorithm 1: I = beta^depth")->capture_default_str();
-  cmd->add_option("--min-importance", o.field.min_importance, "Floor of the importance")->capture_default_str();
-  cmd->add_option("--depth-scale", o.field.depth_scale, "Field depth per output spacing (0 = automatic)")
-      ->capture_default_str();
-  cmd->add_option("--mu", o.awlop.mu, "Eq. (17) repulsion strength")->capture_default_str();
-  cmd->add_option("--awlop-samples", o.awlop.attraction_samples_per_target,
-                  "Surface samples AWLOP attracts to, per target vertex")
-      ->capture_default_str();
-  cmd->add_option("--awlop-k", o.awlop.k, "AWLOP neighbours")->capture_default_str();
-  cmd->add_option("--awlop-iterations", o.awlop.iterations, "AWLOP iterations")->capture_default_str();
-  cmd->add_option("--awlop-support", awlop_support, "h from 'target' spacing or 'paper' (input edges)")
-      ->check(CLI::IsMember({"target", "paper"}))
-      ->capture_default_str();
-}
-
 }  // namespace
 
 // The upload: a .drc file as it is (the server validates it), any other
@@ -203,7 +164,7 @@ Command add_submit_command(CLI::App& app) {
   cmd->add_option("input", args->input, "Input mesh (.drc .obj .ply .off .stl)")->required();
   cmd->add_option("-o,--output", args->output, "Output mesh (.drc .ply .obj)");
   add_server_flags(cmd, args->server, args->deadline_s);
-  add_pipeline_flags(cmd, args->options, args->awlop_support, args->no_pca, args->rotation);
+  add_pipeline_flags(cmd, args->options, args->flags);
   cmd->add_option("--field-out", args->field_out, "Write the result colored by its saliency field (.ply .drc .obj)");
   cmd->add_flag("--json", args->json, "Print a JSON report instead of the table (no progress lines)");
   cmd->add_flag("--no-wait", args->no_wait, "Only queue the job and print its id (follow it with watch)");

@@ -1,0 +1,51 @@
+#include "pipeline_flags.h"
+
+#include <array>
+
+namespace vpr::cli {
+
+void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& values) {
+  cmd->add_option("-n,--target-vertices", o.target_vertices, "Output vertex count (within 2%)")->required();
+  cmd->add_option("--views", o.views.count, "Number of views: 6 (axes) or 14 (axes + diagonals)")
+      ->check(CLI::IsMember({6, 14}))
+      ->capture_default_str();
+  cmd->add_option("--resolution", o.views.resolution, "Snapshot resolution in pixels")->capture_default_str();
+  cmd->add_option("--seed", o.sampling.seed, "Random seed of the sampler")->capture_default_str();
+  cmd->add_flag("--no-pca", values.no_pca, "Use the model's own axes instead of its principal axes");
+  cmd->add_option("--rotation", values.rotation, "User rotation, 9 numbers (row-major 3x3)")->expected(9);
+  // The paper's constants (Sections III-V), each with its default.
+  cmd->add_option("--median-size", o.image.median_size, "Median pre-filter window")->capture_default_str();
+  cmd->add_option("--gaussian-size", o.image.gaussian_size, "Eq. (1) Gaussian window n")->capture_default_str();
+  cmd->add_option("--gaussian-sigma", o.image.gaussian_sigma, "Eq. (1) Gaussian sigma")->capture_default_str();
+  cmd->add_option("--threshold-c", o.image.threshold_c, "Eq. (3) threshold C")->capture_default_str();
+  cmd->add_option("--skeleton-lambda", o.image.skeleton_lambda, "Eq. (5) lambda")->capture_default_str();
+  cmd->add_option("--thin-feature-px", o.image.thin_feature_px, "Thin feature size at 512 px")->capture_default_str();
+  cmd->add_option("--knn", o.field.k, "Algorithm 1: k of the k-NN graph")->capture_default_str();
+  cmd->add_option("--beta", o.field.beta, "Algorithm 1: I = beta^depth")->capture_default_str();
+  cmd->add_option("--min-importance", o.field.min_importance, "Floor of the importance")->capture_default_str();
+  cmd->add_option("--depth-scale", o.field.depth_scale, "Field depth per output spacing (0 = automatic)")
+      ->capture_default_str();
+  cmd->add_option("--mu", o.awlop.mu, "Eq. (17) repulsion strength")->capture_default_str();
+  cmd->add_option("--awlop-samples", o.awlop.attraction_samples_per_target,
+                  "Surface samples AWLOP attracts to, per target vertex")
+      ->capture_default_str();
+  cmd->add_option("--awlop-k", o.awlop.k, "AWLOP neighbours")->capture_default_str();
+  cmd->add_option("--awlop-iterations", o.awlop.iterations, "AWLOP iterations")->capture_default_str();
+  cmd->add_option("--awlop-support", values.awlop_support, "h from 'target' spacing or 'paper' (input edges)")
+      ->check(CLI::IsMember({"target", "paper"}))
+      ->capture_default_str();
+}
+
+Status apply_pipeline_flags(const PipelineFlagValues& values, PipelineOptions* o) {
+  if (values.awlop_support == "paper") o->awlop.support = AwlopSupport::kPaper;
+  o->views.pca_align = !values.no_pca;
+  if (!values.rotation.empty()) {
+    if (values.rotation.size() != 9) return invalid_argument("--rotation needs 9 numbers (row-major 3x3)");
+    std::array<double, 9> r{};
+    for (int i = 0; i < 9; ++i) r[i] = values.rotation[i];
+    o->views.user_rotation = r;
+  }
+  return Status::Ok();
+}
+
+}  // namespace vpr::cli
