@@ -19,7 +19,19 @@
 #include <string>
 #include <vector>
 
-namespace vpr::cpu {
+namespace vpr {
+
+Status check_distance_transform_args(const Mask& seeds) {
+  const int w = seeds.width, h = seeds.height;
+  if (w <= 0 || h <= 0 || seeds.pixels.size() != size_t(w) * size_t(h)) {
+    return invalid_argument("distance_transform: image is " + std::to_string(w) + " x " + std::to_string(h) + " with " +
+                            std::to_string(seeds.pixels.size()) +
+                            " pixels; need a non-empty image with width * height pixels");
+  }
+  return Status::Ok();
+}
+
+namespace cpu {
 namespace {
 
 constexpr int64_t kNoSeed = -1;  // column without any seed: f(q) = infinity
@@ -93,12 +105,8 @@ void row_pass(const int64_t* f, int w, int64_t* d2, std::vector<int>& v, std::ve
 
 Status distance_transform(const Mask& seeds, FloatImage* dist, const ExecContext& /*ctx*/) {
   assert(dist != nullptr);
+  VPR_RETURN_IF_ERROR(check_distance_transform_args(seeds));
   const int w = seeds.width, h = seeds.height;
-  if (w <= 0 || h <= 0 || seeds.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("distance_transform: image is " + std::to_string(w) + " x " + std::to_string(h) + " with " +
-                            std::to_string(seeds.pixels.size()) +
-                            " pixels; need a non-empty image with width * height pixels");
-  }
   *dist = FloatImage(w, h, std::numeric_limits<float>::infinity());
   bool any_seed = false;
   for (uint8_t s : seeds.pixels) {
@@ -132,4 +140,5 @@ Status distance_transform(const Mask& seeds, FloatImage* dist, const ExecContext
   return Status::Ok();
 }
 
-}  // namespace vpr::cpu
+}  // namespace cpu
+}  // namespace vpr

@@ -99,12 +99,8 @@ Status distance_transform_device(const uint8_t* seeds, int w, int h, const uint8
 
 Status distance_transform(const Mask& seeds, FloatImage* dist, const ExecContext& ctx) {
   assert(dist != nullptr);
+  VPR_RETURN_IF_ERROR(check_distance_transform_args(seeds));
   const int w = seeds.width, h = seeds.height;
-  if (w <= 0 || h <= 0 || seeds.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("distance_transform: image is " + std::to_string(w) + " x " + std::to_string(h) + " with " +
-                            std::to_string(seeds.pixels.size()) +
-                            " pixels; need a non-empty image with width * height pixels");
-  }
   VPR_RETURN_IF_ERROR(detail::require_stream(ctx, "distance_transform"));
   bool any_seed = false;
   for (uint8_t s : seeds.pixels) any_seed = any_seed || s;

@@ -7,6 +7,13 @@
 #include "image.h"
 #include "status.h"
 
+namespace vpr {
+
+// distance_transform's argument check, shared by both twins: a non-empty seed mask with width * height pixels.
+Status check_distance_transform_args(const Mask& seeds);
+
+}  // namespace vpr
+
 namespace vpr::cpu {
 
 // dist(x, y) = Euclidean distance in pixels from (x, y) to the nearest pixel with

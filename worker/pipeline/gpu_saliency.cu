@@ -16,7 +16,7 @@ namespace vpr::cuda {
 Status view_saliency_points(const DeviceSnapshot& snapshot, const View& view, const ImageSaliencyOptions& options,
                             std::vector<float>* points, FeatureImages* debug, const ExecContext& ctx) {
   assert(points != nullptr);
-  VPR_RETURN_IF_ERROR(detail::check_saliency_options(options));
+  VPR_RETURN_IF_ERROR(check_image_saliency_options(options));
   const int w = snapshot.width, h = snapshot.height;
   if (w <= 0 || h <= 0 || !snapshot.gray || !snapshot.coverage || !snapshot.depth) {
     return invalid_argument("view_saliency_points: device snapshot is " + std::to_string(w) + " x " +
@@ -44,21 +44,11 @@ Status view_saliency_points(const DeviceSnapshot& snapshot, const View& view, co
 Status view_saliency_points(const Snapshot& snapshot, const View& view, const ImageSaliencyOptions& options,
                             std::vector<float>* points, FeatureImages* debug, const ExecContext& ctx) {
   assert(points != nullptr);
-  VPR_RETURN_IF_ERROR(detail::check_saliency_options(options));
   // The CPU twins' checks: gray, coverage and depth share one size.
+  VPR_RETURN_IF_ERROR(check_detect_features_args(snapshot, options));
   const int w = snapshot.gray.width, h = snapshot.gray.height;
-  const size_t n = size_t(w > 0 ? w : 0) * size_t(h > 0 ? h : 0);
-  if (w <= 0 || h <= 0 || snapshot.gray.pixels.size() != n) {
-    return invalid_argument("detect_features: gray image is " + std::to_string(w) + " x " + std::to_string(h) +
-                            " with " + std::to_string(snapshot.gray.pixels.size()) +
-                            " pixels; need a non-empty image with width * height pixels");
-  }
+  const size_t n = size_t(w) * size_t(h);
   const Mask& coverage = snapshot.coverage;
-  if (coverage.width != w || coverage.height != h || coverage.pixels.size() != n) {
-    return invalid_argument("detect_features: coverage is " + std::to_string(coverage.width) + " x " +
-                            std::to_string(coverage.height) + " but the gray image is " + std::to_string(w) + " x " +
-                            std::to_string(h));
-  }
   const FloatImage& depth = snapshot.depth;
   if (depth.width != w || depth.height != h || depth.pixels.size() != n) {
     return invalid_argument("feature mask is " + std::to_string(w) + "x" + std::to_string(h) +

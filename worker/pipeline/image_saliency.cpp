@@ -13,10 +13,9 @@
 #include "median_filter.h"
 #include "silhouette_feature.h"
 
-namespace vpr::cpu {
-namespace {
+namespace vpr {
 
-Status check_options(const ImageSaliencyOptions& o) {
+Status check_image_saliency_options(const ImageSaliencyOptions& o) {
   if (o.median_size < 1 || o.median_size % 2 == 0 || o.median_size > 255) {
     return invalid_argument("median_size = " + std::to_string(o.median_size) + " must be odd and in [1, 255]");
   }
@@ -41,12 +40,8 @@ Status check_options(const ImageSaliencyOptions& o) {
   return Status::Ok();
 }
 
-}  // namespace
-
-Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& options, FeatureImages* out,
-                       const ExecContext& ctx) {
-  assert(out != nullptr);
-  VPR_RETURN_IF_ERROR(check_options(options));
+Status check_detect_features_args(const Snapshot& snapshot, const ImageSaliencyOptions& options) {
+  VPR_RETURN_IF_ERROR(check_image_saliency_options(options));
   const int w = snapshot.gray.width, h = snapshot.gray.height;
   if (w <= 0 || h <= 0 || snapshot.gray.pixels.size() != size_t(w) * size_t(h)) {
     return invalid_argument("detect_features: gray image is " + std::to_string(w) + " x " + std::to_string(h) +
@@ -59,6 +54,16 @@ Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& opt
                             std::to_string(coverage.height) + " but the gray image is " + std::to_string(w) + " x " +
                             std::to_string(h));
   }
+  return Status::Ok();
+}
+
+namespace cpu {
+
+Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& options, FeatureImages* out,
+                       const ExecContext& ctx) {
+  assert(out != nullptr);
+  VPR_RETURN_IF_ERROR(check_detect_features_args(snapshot, options));
+  const int w = snapshot.gray.width, h = snapshot.gray.height;
 
   // Section III-A: the median pre-filter removes shading noise.
   VPR_RETURN_IF_ERROR(median_filter(snapshot.gray, options.median_size, &out->filtered, ctx));
@@ -66,7 +71,7 @@ Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& opt
   // The same window on the coverage is a majority vote (the median of a 0/1
   // image), so one-pixel bumps and notches of scanned silhouettes do not grow
   // skeleton spurs.
-  VPR_RETURN_IF_ERROR(majority_filter(coverage, options.median_size, &out->foreground, ctx));
+  VPR_RETURN_IF_ERROR(majority_filter(snapshot.coverage, options.median_size, &out->foreground, ctx));
 
   VPR_RETURN_IF_ERROR(silhouette_pixels(out->foreground, &out->silhouette, ctx));
 
@@ -99,4 +104,5 @@ Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& opt
   return Status::Ok();
 }
 
-}  // namespace vpr::cpu
+}  // namespace cpu
+}  // namespace vpr

@@ -17,31 +17,6 @@
 namespace vpr::cuda {
 namespace detail {
 
-Status check_saliency_options(const ImageSaliencyOptions& o) {
-  if (o.median_size < 1 || o.median_size % 2 == 0 || o.median_size > 255) {
-    return invalid_argument("median_size = " + std::to_string(o.median_size) + " must be odd and in [1, 255]");
-  }
-  if (o.gaussian_size < 1 || o.gaussian_size % 2 == 0 || o.gaussian_size > 63) {
-    return invalid_argument("gaussian_size = " + std::to_string(o.gaussian_size) +
-                            " must be odd and in [1, 63] (Eq. 1)");
-  }
-  if (!(o.gaussian_sigma > 0.f) || !std::isfinite(o.gaussian_sigma)) {
-    return invalid_argument("gaussian_sigma = " + std::to_string(o.gaussian_sigma) +
-                            " must be positive and finite (Eq. 1)");
-  }
-  if (o.threshold_c < -255 || o.threshold_c > 255) {
-    return invalid_argument("threshold_c = " + std::to_string(o.threshold_c) + " must be in [-255, 255] (Eq. 3)");
-  }
-  if (o.skeleton_lambda < 2 || o.skeleton_lambda % 2 != 0 || o.skeleton_lambda > 64) {
-    return invalid_argument("skeleton_lambda = " + std::to_string(o.skeleton_lambda) +
-                            " must be even and in [2, 64] (Eq. 5)");
-  }
-  if (!(o.thin_feature_px >= 0.f) || !std::isfinite(o.thin_feature_px)) {
-    return invalid_argument("thin_feature_px = " + std::to_string(o.thin_feature_px) + " must be finite and >= 0");
-  }
-  return Status::Ok();
-}
-
 Status detect_features_device(const uint8_t* gray, const uint8_t* coverage, int w, int h,
                               const ImageSaliencyOptions& options, DeviceFeatures* out, const ExecContext& ctx) {
   const size_t n = size_t(w) * size_t(h);
@@ -105,24 +80,13 @@ Status download_features(const DeviceFeatures& in, int w, int h, FeatureImages* 
 Status detect_features(const Snapshot& snapshot, const ImageSaliencyOptions& options, FeatureImages* out,
                        const ExecContext& ctx) {
   assert(out != nullptr);
-  VPR_RETURN_IF_ERROR(detail::check_saliency_options(options));
+  VPR_RETURN_IF_ERROR(check_detect_features_args(snapshot, options));
   const int w = snapshot.gray.width, h = snapshot.gray.height;
-  if (w <= 0 || h <= 0 || snapshot.gray.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("detect_features: gray image is " + std::to_string(w) + " x " + std::to_string(h) +
-                            " with " + std::to_string(snapshot.gray.pixels.size()) +
-                            " pixels; need a non-empty image with width * height pixels");
-  }
-  const Mask& coverage = snapshot.coverage;
-  if (coverage.width != w || coverage.height != h || coverage.pixels.size() != snapshot.gray.pixels.size()) {
-    return invalid_argument("detect_features: coverage is " + std::to_string(coverage.width) + " x " +
-                            std::to_string(coverage.height) + " but the gray image is " + std::to_string(w) + " x " +
-                            std::to_string(h));
-  }
   VPR_RETURN_IF_ERROR(detail::require_stream(ctx, "detect_features"));
   const size_t n = snapshot.gray.pixels.size();
   DeviceBuffer<uint8_t> gray, cov;
   VPR_RETURN_IF_ERROR(gray.upload(snapshot.gray.pixels.data(), n, ctx));
-  VPR_RETURN_IF_ERROR(cov.upload(coverage.pixels.data(), n, ctx));
+  VPR_RETURN_IF_ERROR(cov.upload(snapshot.coverage.pixels.data(), n, ctx));
   detail::DeviceFeatures device;
   VPR_RETURN_IF_ERROR(detail::detect_features_device(gray.get(), cov.get(), w, h, options, &device, ctx));
   FeatureImages result;

@@ -34,6 +34,12 @@ struct FeatureImages {
   Mask features;                   // inner | thin: the pixels that become saliency points
 };
 
+// Argument checks shared by the CPU and GPU twins, so both fail alike.
+// The options in range (see ImageSaliencyOptions); the message names the field.
+Status check_image_saliency_options(const ImageSaliencyOptions& options);
+// detect_features: the options, then a non-empty gray image and a coverage mask of its size.
+Status check_detect_features_args(const Snapshot& snapshot, const ImageSaliencyOptions& options);
+
 namespace cpu {
 
 // Fills every image of *out, each the size of the snapshot (gray and coverage

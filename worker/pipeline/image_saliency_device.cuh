@@ -76,7 +76,4 @@ Status detect_features_device(const uint8_t* gray, const uint8_t* coverage, int 
 // synchronize the stream before reading them.
 Status download_features(const DeviceFeatures& in, int w, int h, FeatureImages* out);
 
-// Options check shared with cpu::detect_features' rules (same messages).
-Status check_saliency_options(const ImageSaliencyOptions& o);
-
 }  // namespace vpr::cuda::detail

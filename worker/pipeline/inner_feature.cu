@@ -43,29 +43,8 @@ Status launch_inner_features(const uint8_t* filtered, const uint8_t* foreground,
 Status inner_features(const GrayImage& filtered, const Mask& foreground, int n, float sigma, int c, Mask* features,
                       const ExecContext& ctx) {
   assert(features != nullptr);
-  // The CPU twin's checks and messages.
+  VPR_RETURN_IF_ERROR(check_inner_features_args(filtered, foreground, n, sigma, c));
   const int w = filtered.width, h = filtered.height;
-  if (w <= 0 || h <= 0 || filtered.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("inner_features: image is " + std::to_string(w) + " x " + std::to_string(h) + " with " +
-                            std::to_string(filtered.pixels.size()) +
-                            " pixels; need a non-empty image with width * height pixels");
-  }
-  if (foreground.width != w || foreground.height != h || foreground.pixels.size() != filtered.pixels.size()) {
-    return invalid_argument("inner_features: foreground is " + std::to_string(foreground.width) + " x " +
-                            std::to_string(foreground.height) + " but the image is " + std::to_string(w) + " x " +
-                            std::to_string(h));
-  }
-  if (n < 1 || n % 2 == 0 || n > 63) {
-    return invalid_argument("inner_features: window size n = " + std::to_string(n) +
-                            " must be odd and in [1, 63] (Eq. 1)");
-  }
-  if (!(sigma > 0.f) || !std::isfinite(sigma)) {
-    return invalid_argument("inner_features: sigma = " + std::to_string(sigma) +
-                            " must be positive and finite (Eq. 1)");
-  }
-  if (c < -255 || c > 255) {
-    return invalid_argument("inner_features: C = " + std::to_string(c) + " must be in [-255, 255] (Eq. 3)");
-  }
   VPR_RETURN_IF_ERROR(detail::require_stream(ctx, "inner_features"));
   const std::vector<int> weights = gaussian_weights_fixed(n, sigma);
   const size_t pixels = filtered.pixels.size();

@@ -14,6 +14,9 @@ namespace vpr {
 // n x n Gaussian weights (Eq. 1), quantized to integers summing to 2^16.
 std::vector<int> gaussian_weights_fixed(int n, float sigma);
 
+// inner_features' argument check, shared by both twins so they fail alike.
+Status check_inner_features_args(const GrayImage& filtered, const Mask& foreground, int n, float sigma, int c);
+
 namespace cpu {
 
 // features(x, y) = 1 where foreground(x, y) and T(x, y) > P(x, y) (Eq. 3), with

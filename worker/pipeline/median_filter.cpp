@@ -15,10 +15,11 @@
 
 #include "image_kernels.h"
 
-namespace vpr::cpu {
-namespace {
+namespace vpr {
 
-Status check_input(const char* what, int w, int h, size_t pixels, int size) {
+Status check_median_filter_args(const char* what, const Image<uint8_t>& in, int size) {
+  const int w = in.width, h = in.height;
+  const size_t pixels = in.pixels.size();
   if (w <= 0 || h <= 0 || pixels != size_t(w) * size_t(h)) {
     return invalid_argument(std::string(what) + ": image is " + std::to_string(w) + " x " + std::to_string(h) +
                             " with " + std::to_string(pixels) +
@@ -31,11 +32,11 @@ Status check_input(const char* what, int w, int h, size_t pixels, int size) {
   return Status::Ok();
 }
 
-}  // namespace
+namespace cpu {
 
 Status median_filter(const GrayImage& in, int size, GrayImage* out, const ExecContext& /*ctx*/) {
   assert(out != nullptr);
-  VPR_RETURN_IF_ERROR(check_input("median_filter", in.width, in.height, in.pixels.size(), size));
+  VPR_RETURN_IF_ERROR(check_median_filter_args("median_filter", in, size));
   const int w = in.width, h = in.height, r = size / 2;
   const int rank = size * size / 2;  // 0-based rank of the median in the sorted window
   *out = GrayImage(w, h, 0);
@@ -107,7 +108,7 @@ Status median_filter(const GrayImage& in, int size, GrayImage* out, const ExecCo
 
 Status majority_filter(const Mask& in, int size, Mask* out, const ExecContext& /*ctx*/) {
   assert(out != nullptr);
-  VPR_RETURN_IF_ERROR(check_input("majority_filter", in.width, in.height, in.pixels.size(), size));
+  VPR_RETURN_IF_ERROR(check_median_filter_args("majority_filter", in, size));
   const int w = in.width, h = in.height, r = size / 2;
   const int rank = size * size / 2;
   // Vertical counts per column (clamped rows), then a horizontal window over them.
@@ -138,4 +139,5 @@ Status majority_filter(const Mask& in, int size, Mask* out, const ExecContext& /
   return Status::Ok();
 }
 
-}  // namespace vpr::cpu
+}  // namespace cpu
+}  // namespace vpr

@@ -53,26 +53,12 @@ Status launch_majority(const uint8_t* mask, int w, int h, int size, uint8_t* out
 
 namespace {
 
-// The CPU twin's checks and messages.
-Status check_input(const char* what, int w, int h, size_t pixels, int size) {
-  if (w <= 0 || h <= 0 || pixels != size_t(w) * size_t(h)) {
-    return invalid_argument(std::string(what) + ": image is " + std::to_string(w) + " x " + std::to_string(h) +
-                            " with " + std::to_string(pixels) +
-                            " pixels; need a non-empty image with width * height pixels");
-  }
-  if (size < 1 || size % 2 == 0 || size > 255) {
-    return invalid_argument(std::string(what) + ": window size " + std::to_string(size) +
-                            " must be odd and in [1, 255]");
-  }
-  return Status::Ok();
-}
-
 using Launcher = Status (*)(const uint8_t*, int, int, int, uint8_t*, const ExecContext&);
 
 Status run_filter(const char* what, Launcher launch, const Image<uint8_t>& in, int size, Image<uint8_t>* out,
                   const ExecContext& ctx) {
   assert(out != nullptr);
-  VPR_RETURN_IF_ERROR(check_input(what, in.width, in.height, in.pixels.size(), size));
+  VPR_RETURN_IF_ERROR(check_median_filter_args(what, in, size));
   VPR_RETURN_IF_ERROR(detail::require_stream(ctx, what));
   const int w = in.width, h = in.height;
   DeviceBuffer<uint8_t> src, dst;

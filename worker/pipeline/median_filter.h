@@ -7,6 +7,13 @@
 #include "image.h"
 #include "status.h"
 
+namespace vpr {
+
+// Argument check of median_filter and majority_filter (what: the caller's name), shared by both twins.
+Status check_median_filter_args(const char* what, const Image<uint8_t>& in, int size);
+
+}  // namespace vpr
+
 namespace vpr::cpu {
 
 // size x size window (odd); pixels outside the image are clamped to the edge.

@@ -14,7 +14,7 @@
 #include "distance_transform.h"
 #include "image_kernels.h"
 
-namespace vpr::cpu {
+namespace vpr {
 namespace {
 
 Status check_mask(const char* what, const Mask& m, int w, int h) {
@@ -34,6 +34,51 @@ Status check_size(const char* what, int w, int h) {
   return Status::Ok();
 }
 
+}  // namespace
+
+Status check_silhouette_pixels_args(const Mask& foreground) {
+  const int w = foreground.width, h = foreground.height;
+  VPR_RETURN_IF_ERROR(check_size("silhouette_pixels", w, h));
+  VPR_RETURN_IF_ERROR(check_mask("silhouette_pixels: foreground", foreground, w, h));
+  return Status::Ok();
+}
+
+Status check_skeleton_args(const FloatImage& silhouette_distance, const Mask& foreground, int lambda) {
+  const int w = silhouette_distance.width, h = silhouette_distance.height;
+  VPR_RETURN_IF_ERROR(check_size("skeleton", w, h));
+  if (silhouette_distance.pixels.size() != size_t(w) * size_t(h)) {
+    return invalid_argument("skeleton: distance map has " + std::to_string(silhouette_distance.pixels.size()) +
+                            " pixels; expected " + std::to_string(w) + " x " + std::to_string(h));
+  }
+  VPR_RETURN_IF_ERROR(check_mask("skeleton: foreground", foreground, w, h));
+  if (lambda < 2 || lambda % 2 != 0 || lambda > 64) {
+    return invalid_argument("skeleton: lambda = " + std::to_string(lambda) + " must be even and in [2, 64] (Eq. 5)");
+  }
+  return Status::Ok();
+}
+
+Status check_thin_features_args(const Mask& foreground, const Mask& silhouette, const Mask& skeleton,
+                                const FloatImage& silhouette_distance, float threshold_px) {
+  const int w = foreground.width, h = foreground.height;
+  VPR_RETURN_IF_ERROR(check_size("thin_features", w, h));
+  VPR_RETURN_IF_ERROR(check_mask("thin_features: foreground", foreground, w, h));
+  VPR_RETURN_IF_ERROR(check_mask("thin_features: silhouette", silhouette, w, h));
+  VPR_RETURN_IF_ERROR(check_mask("thin_features: skeleton", skeleton, w, h));
+  if (silhouette_distance.width != w || silhouette_distance.height != h ||
+      silhouette_distance.pixels.size() != size_t(w) * size_t(h)) {
+    return invalid_argument("thin_features: distance map is " + std::to_string(silhouette_distance.width) + " x " +
+                            std::to_string(silhouette_distance.height) + "; expected " + std::to_string(w) + " x " +
+                            std::to_string(h));
+  }
+  if (!(threshold_px >= 0.f) || !std::isfinite(threshold_px)) {
+    return invalid_argument("thin_features: threshold " + std::to_string(threshold_px) + " px must be finite and >= 0");
+  }
+  return Status::Ok();
+}
+
+namespace cpu {
+namespace {
+
 template <class Fn>
 void for_each_row(int h, Fn&& fn) {
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
@@ -45,9 +90,8 @@ void for_each_row(int h, Fn&& fn) {
 
 Status silhouette_pixels(const Mask& foreground, Mask* silhouette, const ExecContext& /*ctx*/) {
   assert(silhouette != nullptr);
+  VPR_RETURN_IF_ERROR(check_silhouette_pixels_args(foreground));
   const int w = foreground.width, h = foreground.height;
-  VPR_RETURN_IF_ERROR(check_size("silhouette_pixels", w, h));
-  VPR_RETURN_IF_ERROR(check_mask("silhouette_pixels: foreground", foreground, w, h));
   *silhouette = Mask(w, h, 0);
   const uint8_t* fg = foreground.pixels.data();
   uint8_t* out = silhouette->pixels.data();
@@ -60,16 +104,8 @@ Status silhouette_pixels(const Mask& foreground, Mask* silhouette, const ExecCon
 Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, int lambda, Mask* skeleton,
                 const ExecContext& /*ctx*/) {
   assert(skeleton != nullptr);
+  VPR_RETURN_IF_ERROR(check_skeleton_args(silhouette_distance, foreground, lambda));
   const int w = silhouette_distance.width, h = silhouette_distance.height;
-  VPR_RETURN_IF_ERROR(check_size("skeleton", w, h));
-  if (silhouette_distance.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("skeleton: distance map has " + std::to_string(silhouette_distance.pixels.size()) +
-                            " pixels; expected " + std::to_string(w) + " x " + std::to_string(h));
-  }
-  VPR_RETURN_IF_ERROR(check_mask("skeleton: foreground", foreground, w, h));
-  if (lambda < 2 || lambda % 2 != 0 || lambda > 64) {
-    return invalid_argument("skeleton: lambda = " + std::to_string(lambda) + " must be even and in [2, 64] (Eq. 5)");
-  }
   const int m = lambda / 2;  // Eq. (5): the kernel spans lambda + 1 pixels, m each way
   // One array for the kernel: D on the foreground, 0 elsewhere.
   std::vector<float> masked(silhouette_distance.pixels.size());
@@ -94,20 +130,8 @@ Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, i
 Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask& skeleton,
                      const FloatImage& silhouette_distance, float threshold_px, Mask* thin, const ExecContext& ctx) {
   assert(thin != nullptr);
+  VPR_RETURN_IF_ERROR(check_thin_features_args(foreground, silhouette, skeleton, silhouette_distance, threshold_px));
   const int w = foreground.width, h = foreground.height;
-  VPR_RETURN_IF_ERROR(check_size("thin_features", w, h));
-  VPR_RETURN_IF_ERROR(check_mask("thin_features: foreground", foreground, w, h));
-  VPR_RETURN_IF_ERROR(check_mask("thin_features: silhouette", silhouette, w, h));
-  VPR_RETURN_IF_ERROR(check_mask("thin_features: skeleton", skeleton, w, h));
-  if (silhouette_distance.width != w || silhouette_distance.height != h ||
-      silhouette_distance.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("thin_features: distance map is " + std::to_string(silhouette_distance.width) + " x " +
-                            std::to_string(silhouette_distance.height) + "; expected " + std::to_string(w) + " x " +
-                            std::to_string(h));
-  }
-  if (!(threshold_px >= 0.f) || !std::isfinite(threshold_px)) {
-    return invalid_argument("thin_features: threshold " + std::to_string(threshold_px) + " px must be finite and >= 0");
-  }
 
   // Feature size: distance from each silhouette pixel to the skeleton.
   FloatImage to_skeleton;
@@ -141,4 +165,5 @@ Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask&
   return Status::Ok();
 }
 
-}  // namespace vpr::cpu
+}  // namespace cpu
+}  // namespace vpr

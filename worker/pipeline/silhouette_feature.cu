@@ -120,24 +120,6 @@ Status thin_features_device(const uint8_t* foreground, const uint8_t* silhouette
 
 namespace {
 
-// The CPU twin's checks and messages.
-Status check_mask(const char* what, const Mask& m, int w, int h) {
-  if (m.width != w || m.height != h || m.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument(std::string(what) + " is " + std::to_string(m.width) + " x " + std::to_string(m.height) +
-                            " with " + std::to_string(m.pixels.size()) + " pixels; expected " + std::to_string(w) +
-                            " x " + std::to_string(h));
-  }
-  return Status::Ok();
-}
-
-Status check_size(const char* what, int w, int h) {
-  if (w <= 0 || h <= 0) {
-    return invalid_argument(std::string(what) + ": image is " + std::to_string(w) + " x " + std::to_string(h) +
-                            "; need a non-empty image");
-  }
-  return Status::Ok();
-}
-
 // Downloads a device mask into *out and waits for it.
 Status finish(const DeviceBuffer<uint8_t>& device, int w, int h, Mask* out, const ExecContext& ctx) {
   Mask result(w, h, 0);
@@ -151,9 +133,8 @@ Status finish(const DeviceBuffer<uint8_t>& device, int w, int h, Mask* out, cons
 
 Status silhouette_pixels(const Mask& foreground, Mask* silhouette, const ExecContext& ctx) {
   assert(silhouette != nullptr);
+  VPR_RETURN_IF_ERROR(check_silhouette_pixels_args(foreground));
   const int w = foreground.width, h = foreground.height;
-  VPR_RETURN_IF_ERROR(check_size("silhouette_pixels", w, h));
-  VPR_RETURN_IF_ERROR(check_mask("silhouette_pixels: foreground", foreground, w, h));
   VPR_RETURN_IF_ERROR(detail::require_stream(ctx, "silhouette_pixels"));
   DeviceBuffer<uint8_t> fg, out;
   VPR_RETURN_IF_ERROR(fg.upload(foreground.pixels.data(), foreground.pixels.size(), ctx));
@@ -165,16 +146,8 @@ Status silhouette_pixels(const Mask& foreground, Mask* silhouette, const ExecCon
 Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, int lambda, Mask* skeleton,
                 const ExecContext& ctx) {
   assert(skeleton != nullptr);
+  VPR_RETURN_IF_ERROR(check_skeleton_args(silhouette_distance, foreground, lambda));
   const int w = silhouette_distance.width, h = silhouette_distance.height;
-  VPR_RETURN_IF_ERROR(check_size("skeleton", w, h));
-  if (silhouette_distance.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("skeleton: distance map has " + std::to_string(silhouette_distance.pixels.size()) +
-                            " pixels; expected " + std::to_string(w) + " x " + std::to_string(h));
-  }
-  VPR_RETURN_IF_ERROR(check_mask("skeleton: foreground", foreground, w, h));
-  if (lambda < 2 || lambda % 2 != 0 || lambda > 64) {
-    return invalid_argument("skeleton: lambda = " + std::to_string(lambda) + " must be even and in [2, 64] (Eq. 5)");
-  }
   VPR_RETURN_IF_ERROR(detail::require_stream(ctx, "skeleton"));
   const size_t n = size_t(w) * size_t(h);
   DeviceBuffer<float> dist, masked;
@@ -193,20 +166,8 @@ Status skeleton(const FloatImage& silhouette_distance, const Mask& foreground, i
 Status thin_features(const Mask& foreground, const Mask& silhouette, const Mask& skeleton,
                      const FloatImage& silhouette_distance, float threshold_px, Mask* thin, const ExecContext& ctx) {
   assert(thin != nullptr);
+  VPR_RETURN_IF_ERROR(check_thin_features_args(foreground, silhouette, skeleton, silhouette_distance, threshold_px));
   const int w = foreground.width, h = foreground.height;
-  VPR_RETURN_IF_ERROR(check_size("thin_features", w, h));
-  VPR_RETURN_IF_ERROR(check_mask("thin_features: foreground", foreground, w, h));
-  VPR_RETURN_IF_ERROR(check_mask("thin_features: silhouette", silhouette, w, h));
-  VPR_RETURN_IF_ERROR(check_mask("thin_features: skeleton", skeleton, w, h));
-  if (silhouette_distance.width != w || silhouette_distance.height != h ||
-      silhouette_distance.pixels.size() != size_t(w) * size_t(h)) {
-    return invalid_argument("thin_features: distance map is " + std::to_string(silhouette_distance.width) + " x " +
-                            std::to_string(silhouette_distance.height) + "; expected " + std::to_string(w) + " x " +
-                            std::to_string(h));
-  }
-  if (!(threshold_px >= 0.f) || !std::isfinite(threshold_px)) {
-    return invalid_argument("thin_features: threshold " + std::to_string(threshold_px) + " px must be finite and >= 0");
-  }
   VPR_RETURN_IF_ERROR(detail::require_stream(ctx, "thin_features"));
   const size_t n = size_t(w) * size_t(h);
   DeviceBuffer<uint8_t> fg, sil, skel, out;

@@ -6,6 +6,19 @@
 #include "image.h"
 #include "status.h"
 
+namespace vpr {
+
+// Argument checks shared by the CPU and GPU twins, so both fail alike.
+// silhouette_pixels: a non-empty foreground with width * height pixels.
+Status check_silhouette_pixels_args(const Mask& foreground);
+// skeleton: a non-empty distance map, a foreground of its size, lambda even in [2, 64].
+Status check_skeleton_args(const FloatImage& silhouette_distance, const Mask& foreground, int lambda);
+// thin_features: four non-empty images of one size, threshold_px finite and >= 0.
+Status check_thin_features_args(const Mask& foreground, const Mask& silhouette, const Mask& skeleton,
+                                const FloatImage& silhouette_distance, float threshold_px);
+
+}  // namespace vpr
+
 namespace vpr::cpu {
 
 // Foreground pixels with at least one background 4-neighbour (or on the image border).

@@ -10,11 +10,9 @@
 
 #include "vec3.h"
 
-namespace vpr::cpu {
+namespace vpr {
 
-Status unproject_features(const Mask& features, const FloatImage& depth, const View& view, std::vector<float>* points,
-                          const ExecContext& /*ctx*/) {
-  assert(points != nullptr);
+Status check_unproject_args(const Mask& features, const FloatImage& depth, const View& view) {
   const int w = depth.width, h = depth.height;
   if (features.width != w || features.height != h)
     return invalid_argument("feature mask is " + std::to_string(features.width) + "x" +
@@ -24,6 +22,16 @@ Status unproject_features(const Mask& features, const FloatImage& depth, const V
     return invalid_argument("view " + view.name + " is " + std::to_string(view.width) + "x" +
                             std::to_string(view.height) + " but the depth image is " + std::to_string(w) + "x" +
                             std::to_string(h));
+  return Status::Ok();
+}
+
+namespace cpu {
+
+Status unproject_features(const Mask& features, const FloatImage& depth, const View& view, std::vector<float>* points,
+                          const ExecContext& /*ctx*/) {
+  assert(points != nullptr);
+  VPR_RETURN_IF_ERROR(check_unproject_args(features, depth, view));
+  const int w = depth.width, h = depth.height;
   if (w <= 0 || h <= 0) return Status::Ok();
 
   // One buffer per row, concatenated in row order afterwards, so the output is
@@ -53,4 +61,5 @@ Status unproject_features(const Mask& features, const FloatImage& depth, const V
   return Status::Ok();
 }
 
-}  // namespace vpr::cpu
+}  // namespace cpu
+}  // namespace vpr

@@ -112,16 +112,8 @@ Status unproject_device(const uint8_t* features, const float* depth, int w, int 
 Status unproject_features(const Mask& features, const FloatImage& depth, const View& view, std::vector<float>* points,
                           const ExecContext& ctx) {
   assert(points != nullptr);
-  // The CPU twin's checks and messages.
+  VPR_RETURN_IF_ERROR(check_unproject_args(features, depth, view));
   const int w = depth.width, h = depth.height;
-  if (features.width != w || features.height != h)
-    return invalid_argument("feature mask is " + std::to_string(features.width) + "x" +
-                            std::to_string(features.height) + " but the depth image is " + std::to_string(w) + "x" +
-                            std::to_string(h));
-  if (view.width != 0 && (view.width != w || view.height != h))
-    return invalid_argument("view " + view.name + " is " + std::to_string(view.width) + "x" +
-                            std::to_string(view.height) + " but the depth image is " + std::to_string(w) + "x" +
-                            std::to_string(h));
   if (w <= 0 || h <= 0) return Status::Ok();
   VPR_RETURN_IF_ERROR(detail::require_stream(ctx, "unproject_features"));
   const size_t pixels = size_t(w) * size_t(h);

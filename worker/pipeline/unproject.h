@@ -9,6 +9,13 @@
 #include "status.h"
 #include "views.h"
 
+namespace vpr {
+
+// unproject_features' argument check, shared by both twins: features, depth and a sized view agree.
+Status check_unproject_args(const Mask& features, const FloatImage& depth, const View& view);
+
+}  // namespace vpr
+
 namespace vpr::cpu {
 
 // Appends one model-space point (3 floats) to *points for every pixel with
