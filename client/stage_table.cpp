@@ -88,7 +88,9 @@ nlohmann::json report_json(const PipelineResult& result, const RunSummary& s) {
         {"holes_filled", result.meshing.holes_filled},
         {"holes_left", result.meshing.holes_left},
         {"bridges_removed", result.meshing.bridges_removed},
-        {"vertices_split", result.meshing.vertices_split}}},
+        {"vertices_split", result.meshing.vertices_split},
+        {"slabs", result.meshing.slabs},
+        {"seam_defects", result.meshing.seam_defects}}},
   };
 }
 

@@ -340,5 +340,67 @@ TEST(RepairSoupTest, RejectsBadTriangles) {
             StatusCode::kInvalidArgument);
 }
 
+// Points on a bumpy sphere (or its upper half), jittered Fibonacci spiral:
+// evenly spread like AWLOP's output. Returns the spacing.
+double bumpy_sphere_points(int n, bool upper_half_only, std::vector<float>* out) {
+  const double golden = M_PI * (3 - std::sqrt(5.0));
+  for (int i = 0; i < n; ++i) {
+    const double y = 1 - 2.0 * (i + 0.5) / n, r = std::sqrt(1 - y * y);
+    const double t = golden * i + 0.1 * std::sin(7.0 * i) / std::sqrt(double(n));
+    if (upper_half_only && y < 0) continue;
+    const double s = 1 + 0.15 * std::sin(5 * y) * std::cos(3 * t);
+    for (double c : {std::cos(t) * r * s, y * s, std::sin(t) * r * s}) out->push_back(float(c));
+  }
+  return std::sqrt(4 * M_PI / n);
+}
+
+size_t boundary_edges(const Mesh& m) {
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (size_t f = 0; f < m.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = m.indices[3 * f + c], b = m.indices[3 * f + (c + 1) % 3];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  return size_t(std::count_if(uses.begin(), uses.end(), [](const auto& e) { return e.second != 2; }));
+}
+
+TEST(MeshingTest, ParallelSlabsCloseTheirSeamsOnAClosedSurface) {
+  std::vector<float> points;
+  MeshingOptions slabs;
+  slabs.spacing = bumpy_sphere_points(12000, false, &points);
+  slabs.points_per_slab = 3000;
+  const size_t n = points.size() / 3;
+  Mesh whole, parallel, again;
+  MeshingStats whole_stats, parallel_stats;
+  ASSERT_TRUE(mesh_points(points.data(), n, MeshingOptions{}, &whole, nullptr, &whole_stats).ok());
+  ASSERT_TRUE(mesh_points(points.data(), n, slabs, &parallel, nullptr, &parallel_stats).ok());
+  ASSERT_TRUE(mesh_points(points.data(), n, slabs, &again, nullptr, nullptr).ok());
+  EXPECT_EQ(whole_stats.slabs, 1u);
+  EXPECT_EQ(parallel_stats.slabs, 4u) << parallel_stats.seam_defects << " seam defects";
+  EXPECT_EQ(parallel_stats.seam_defects, 0u);
+  EXPECT_EQ(boundary_edges(parallel), 0u) << "the slabs' seams must close";
+  EXPECT_EQ(parallel.vertex_count(), whole.vertex_count());
+  // A closed genus-0 triangulation of V vertices has 2V - 4 faces.
+  EXPECT_EQ(parallel.face_count(), 2 * parallel.vertex_count() - 4);
+  EXPECT_EQ(again.indices, parallel.indices) << "slabs must be reproducible";
+}
+
+// An open surface crosses the cuts with its boundary: the seam check fails and
+// the points are reconstructed whole, giving exactly the serial result.
+TEST(MeshingTest, OpenSurfaceFallsBackToTheWholeReconstruction) {
+  std::vector<float> points;
+  MeshingOptions slabs;
+  slabs.spacing = bumpy_sphere_points(16000, true, &points);
+  slabs.points_per_slab = 2000;
+  const size_t n = points.size() / 3;
+  Mesh whole, attempted;
+  MeshingStats stats;
+  ASSERT_TRUE(mesh_points(points.data(), n, MeshingOptions{}, &whole, nullptr, nullptr).ok());
+  ASSERT_TRUE(mesh_points(points.data(), n, slabs, &attempted, nullptr, &stats).ok());
+  EXPECT_EQ(stats.slabs, 1u);
+  EXPECT_GT(stats.seam_defects, 0u);
+  EXPECT_EQ(attempted.indices, whole.indices);
+}
+
 }  // namespace
 }  // namespace vpr

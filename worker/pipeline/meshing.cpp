@@ -19,7 +19,10 @@
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/boost/graph/Euler_operations.h>
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <limits>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -303,6 +306,89 @@ Status reconstruct_in_allocation_order(const std::vector<Point>& points, const M
   return Status::Ok();
 }
 
+// The parallel path of MeshingOptions (slabs with halos, facets kept by
+// centroid, accepted only when every seam closes). Returns false, with the
+// number of seam defects, when the slabs do not agree and the caller must
+// reconstruct the points whole.
+StatusOr<bool> reconstruct_in_slabs(const std::vector<Point>& points, const MeshingOptions& options,
+                                    std::vector<Triangle>* soup, size_t* slab_count, size_t* seam_defects) {
+  const size_t n = points.size();
+  const size_t slabs = std::min(options.max_slabs, options.points_per_slab ? n / options.points_per_slab : 0);
+  *slab_count = 1;
+  if (slabs < 2 || !(options.spacing > 0) || !std::isfinite(options.spacing)) return false;
+
+  // Cut along the longest axis of the bounding box, at quantiles of the points.
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = points[0][a];
+  for (const Point& p : points)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  int axis = 0;
+  for (int a = 1; a < 3; ++a)
+    if (hi[a] - lo[a] > hi[axis] - lo[axis]) axis = a;
+  std::vector<double> sorted(n);
+  for (size_t i = 0; i < n; ++i) sorted[i] = points[i][axis];
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<double> cut(slabs + 1);
+  cut[0] = -std::numeric_limits<double>::infinity();
+  cut[slabs] = std::numeric_limits<double>::infinity();
+  for (size_t s = 1; s < slabs; ++s) cut[s] = sorted[s * n / slabs];
+  const double halo = options.halo_spacings * options.spacing;
+
+  std::vector<std::vector<Triangle>> kept(slabs);
+  std::vector<Status> status(slabs);
+  tbb::parallel_for(size_t(0), slabs, [&](size_t s) {
+    std::vector<Point> local;
+    std::vector<size_t> global;
+    for (size_t i = 0; i < n; ++i) {
+      const double x = points[i][axis];
+      if (x >= cut[s] - halo && x < cut[s + 1] + halo) {
+        local.push_back(points[i]);
+        global.push_back(i);
+      }
+    }
+    std::vector<Triangle> facets;
+    if (local.size() >= 4) status[s] = reconstruct_in_allocation_order(local, options, &facets);
+    for (Triangle t : facets) {
+      for (size_t& v : t) v = global[v];
+      const double centroid = (points[t[0]][axis] + points[t[1]][axis] + points[t[2]][axis]) / 3.0;
+      if (centroid >= cut[s] && centroid < cut[s + 1]) kept[s].push_back(t);
+    }
+  });
+  for (const Status& st : status) VPR_RETURN_IF_ERROR(st);
+
+  soup->clear();
+  for (const auto& k : kept) soup->insert(soup->end(), k.begin(), k.end());
+  // Seams: every edge with both ends near a cut must be shared by exactly two
+  // facets, as it is in the interior of a closed reconstruction.
+  auto near_cut = [&](size_t v) {
+    const double x = points[v][axis];
+    for (size_t s = 1; s < slabs; ++s)
+      if (std::abs(x - cut[s]) < halo) return true;
+    return false;
+  };
+  std::vector<std::pair<size_t, size_t>> edges;
+  for (const Triangle& t : *soup)
+    for (int c = 0; c < 3; ++c) {
+      const size_t a = t[c], b = t[(c + 1) % 3];
+      if (near_cut(a) && near_cut(b)) edges.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  std::sort(edges.begin(), edges.end());
+  size_t defects = 0;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    defects += (j - i) != 2;
+    i = j;
+  }
+  *seam_defects = defects;
+  if (defects > 0) return false;
+  *slab_count = slabs;
+  return true;
+}
+
 Status mesh_points_impl(const float* points, size_t n, const MeshingOptions& options, Mesh* out,
                         std::vector<uint32_t>* source_point, MeshingStats* stats) {
   if (n < 4) return invalid_argument("meshing needs at least 4 points, got " + std::to_string(n));
@@ -319,7 +405,10 @@ Status mesh_points_impl(const float* points, size_t n, const MeshingOptions& opt
                             " points are coplanar");
 
   std::vector<Triangle> soup;
-  VPR_RETURN_IF_ERROR(reconstruct_in_allocation_order(soup_points, options, &soup));
+  size_t slabs = 1, seam_defects = 0;
+  VPR_ASSIGN_OR_RETURN(const bool in_slabs,
+                       reconstruct_in_slabs(soup_points, options, &soup, &slabs, &seam_defects));
+  if (!in_slabs) VPR_RETURN_IF_ERROR(reconstruct_in_allocation_order(soup_points, options, &soup));
   if (soup.empty())
     return invalid_argument("meshing: the reconstruction found no surface through the " + std::to_string(n) +
                             " points");
@@ -327,7 +416,13 @@ Status mesh_points_impl(const float* points, size_t n, const MeshingOptions& opt
   // sort them so the repair below, and the result, are reproducible.
   canonical_order(&soup);
 
-  return repair_soup(points, n, std::move(soup_points), std::move(soup), options, out, source_point, stats);
+  VPR_RETURN_IF_ERROR(
+      repair_soup(points, n, std::move(soup_points), std::move(soup), options, out, source_point, stats));
+  if (stats) {
+    stats->slabs = slabs;
+    stats->seam_defects = seam_defects;
+  }
+  return Status::Ok();
 }
 
 // CGAL may throw (failed assertions in debug builds, failed constructions);

@@ -20,6 +20,20 @@ struct MeshingOptions {
   // surface (measured on beast.obj at 3000 vertices: a fan of 30x edges from a
   // lone particle; legitimate edges stay under 6x).
   double max_edge_ratio = 8.0;
+  // Parallel reconstruction (our addition; AFSR itself is serial): the points
+  // are cut into slabs along the longest axis, at least points_per_slab each
+  // (at most max_slabs), each slab reconstructed with a halo of halo_spacings x
+  // spacing on both sides, and each keeps the facets whose centroid lies in
+  // its own slab. The result is used only when every seam closes (every edge
+  // near a cut is shared by exactly two facets); otherwise the points are
+  // reconstructed whole, as before. The slab count depends on the point count
+  // only, so the result does not depend on the thread count.
+  // spacing: the expected distance between neighbouring points (model units);
+  // 0 = unknown, which turns slabs off.
+  double spacing = 0;
+  double halo_spacings = 8;
+  size_t points_per_slab = 2500;
+  size_t max_slabs = 16;
 };
 
 struct MeshingStats {
@@ -30,6 +44,8 @@ struct MeshingStats {
   size_t holes_left = 0;
   size_t bridges_removed = 0;  // faces removed for an edge over max_edge_ratio
   size_t vertices_split = 0;   // vertices added by duplicating non-manifold points
+  size_t slabs = 1;            // slabs reconstructed in parallel (1: the whole point set at once)
+  size_t seam_defects = 0;     // open or over-used edges at the cuts of a slab attempt that was rejected
 };
 
 // points: n x 3 floats (the AWLOP particles). out: the surface, its vertices a

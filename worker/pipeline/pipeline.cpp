@@ -1,5 +1,9 @@
 #include "pipeline.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -129,6 +133,29 @@ StatusOr<Mesh> normalized_copy(const Mesh& input, Normalization* norm) {
   for (size_t i = 0; i < input.positions.size(); ++i)
     out.positions[i] = float((double(input.positions[i]) - norm->center[i % 3]) / norm->scale);
   return out;
+}
+
+// True when every edge of the mesh is shared by exactly two faces (in either
+// orientation), i.e. the surface has no boundary: only then can the meshing
+// stage expect its parallel slabs to close at the seams. Edges as sorted
+// 64-bit keys, sorted in parallel.
+bool has_no_boundary(const Mesh& mesh) {
+  std::vector<uint64_t> edges(mesh.indices.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.face_count(), 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f < r.end(); ++f)
+      for (int c = 0; c < 3; ++c) {
+        const uint64_t a = mesh.indices[3 * f + c], b = mesh.indices[3 * f + (c + 1) % 3];
+        edges[3 * f + c] = a < b ? (a << 32 | b) : (b << 32 | a);
+      }
+  });
+  tbb::parallel_sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i != 2) return false;
+    i = j;
+  }
+  return true;
 }
 
 void denormalize(const Normalization& norm, std::vector<float>* positions) {
@@ -332,8 +359,13 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
   // particle's importance as its saliency value.
   VPR_RETURN_IF_ERROR(stage.run("meshing", cpu, [&]() -> Status {
     std::vector<uint32_t> source;
+    // Parallel slabs only where their seams can close: a surface without
+    // boundary (an open one would fail the seam check and cost a second run).
+    MeshingOptions meshing = options.meshing;
+    if (!(meshing.spacing > 0)) meshing.spacing = spacing_out;
+    if (!has_no_boundary(input)) meshing.points_per_slab = 0;
     VPR_RETURN_IF_ERROR(
-        mesh_points(particles.data(), particles.size() / 3, options.meshing, &result.mesh, &source, &result.meshing));
+        mesh_points(particles.data(), particles.size() / 3, meshing, &result.mesh, &source, &result.meshing));
     result.saliency.resize(source.size());
     for (size_t v = 0; v < source.size(); ++v) result.saliency[v] = particle_importance[source[v]];
     return Status::Ok();
