@@ -363,7 +363,9 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     // boundary (an open one would fail the seam check and cost a second run).
     MeshingOptions meshing = options.meshing;
     if (!(meshing.spacing > 0)) meshing.spacing = spacing_out;
-    if (!has_no_boundary(input)) meshing.points_per_slab = 0;
+    const bool slabs_possible =
+        meshing.points_per_slab > 0 && particles.size() / 3 >= 2 * meshing.points_per_slab;
+    if (slabs_possible && !has_no_boundary(input)) meshing.points_per_slab = 0;
     VPR_RETURN_IF_ERROR(
         mesh_points(particles.data(), particles.size() / 3, meshing, &result.mesh, &source, &result.meshing));
     result.saliency.resize(source.size());
