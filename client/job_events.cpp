@@ -76,9 +76,11 @@ Status JobOutcome::add(const v1::JobEvent& e) {
       return append_chunk("result", e.result(), e.result().data(), &result, &result_total);
     case v1::JobEvent::kSaliency:
       return append_floats("saliency", e.saliency(), &saliency, &saliency_total);
+    case v1::JobEvent::kInputSaliency:
+      return append_floats("input_saliency", e.input_saliency(), &input_saliency, &input_saliency_total);
     case v1::JobEvent::kSaliencyPoints:
     case v1::JobEvent::kDebugImage:
-      break;  // not requested by the CLI (the server does not serve them yet)
+      break;  // not requested by the CLI
     case v1::JobEvent::kCompleted:
       end = End::kCompleted;
       summary = e.completed();
@@ -128,7 +130,7 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
   }
 
   const auto start = std::chrono::steady_clock::now();
-  const bool need_mesh = !out.output.empty() || !out.field_out.empty();
+  const bool need_mesh = !out.output.empty() || (!out.field_out.empty() && !out.input_mesh);
   if (need_mesh && o.result_total == 0)
     return fail(not_found("job " + o.job_id + " was submitted without return_mesh: there is no result to write"));
   if (need_mesh && o.result.size() != o.result_total)
@@ -159,7 +161,15 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
       if (Status s = write_mesh(out.output, mesh, saliency_for(mesh)); !s.ok()) return fail(s);
     }
   }
-  if (!out.field_out.empty()) {
+  if (!out.field_out.empty() && out.input_mesh) {
+    // The input as uploaded, colored by its field: `vpremesh local --field-out`.
+    const Mesh& input = *out.input_mesh;
+    if (o.input_saliency.size() != input.vertex_count() || o.input_saliency.size() != o.input_saliency_total)
+      return fail(internal_error("the server sent " + std::to_string(o.input_saliency.size()) +
+                                 " input saliency values for an input of " + std::to_string(input.vertex_count()) +
+                                 " vertices"));
+    if (Status s = write_mesh(out.field_out, input, o.input_saliency.data()); !s.ok()) return fail(s);
+  } else if (!out.field_out.empty()) {
     if (Status s = decode(); !s.ok()) return fail(s);
     if (!saliency_for(mesh))
       return fail(internal_error("the server sent " + std::to_string(o.saliency.size()) +

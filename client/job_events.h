@@ -27,6 +27,8 @@ struct JobOutcome {
   uint64_t result_total = 0;
   std::vector<float> saliency;  // one value per output vertex
   uint64_t saliency_total = 0;
+  std::vector<float> input_saliency;  // one value per input vertex (when asked for)
+  uint64_t input_saliency_total = 0;
   enum class End { kNone, kCompleted, kFailed, kCancelled } end = End::kNone;
   vpremesh::v1::Completed summary;  // when completed
   vpremesh::v1::Failure failure;    // when failed or cancelled
@@ -44,8 +46,12 @@ Status follow_events(const std::function<bool(vpremesh::v1::JobEvent*)>& read, P
 
 // Where a finished job's payloads go; empty paths are skipped.
 struct JobOutputs {
-  std::string output;     // .drc (the server's bytes as they are), .ply or .obj
-  std::string field_out;  // the result colored by its saliency field
+  std::string output;  // .drc (the server's bytes as they are), .ply or .obj
+  // The saliency field: with input_mesh (the input as parsed locally) that
+  // mesh colored by the job's input_saliency, as `vpremesh local --field-out`
+  // writes it; without (watch: no input there) the result colored by its field.
+  std::string field_out;
+  const Mesh* input_mesh = nullptr;
   bool json = false;
   uint32_t target_vertices = 0;  // for the table's deviation column (0: unknown)
   double read_ms = -1;           // client side: reading and encoding the input

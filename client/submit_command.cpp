@@ -68,6 +68,8 @@ StatusOr<v1::JobSpec> build_spec(SubmitArgs& a, uint64_t upload_bytes) {
   spec.set_priority(a.priority);
   spec.set_return_mesh(true);  // also for --no-wait: `vpremesh watch` may want it later
   spec.set_return_saliency(true);
+  // --field-out writes the input colored by its field, as `vpremesh local` does.
+  spec.set_return_input_saliency(!a.field_out.empty());
   spec.set_result_quantization_bits(uint32_t(a.result_quantization_bits));
   spec.set_device(a.device == "cpu" ? v1::DEVICE_CPU : a.device == "cuda" ? v1::DEVICE_CUDA : v1::DEVICE_ANY);
   return spec;
@@ -93,8 +95,10 @@ int run_submit(SubmitArgs& a) {
   outputs.target_vertices = a.options.target_vertices;
 
   auto start = std::chrono::steady_clock::now();
-  auto bytes = draco_upload(a.input, a.quantization_bits);
+  Mesh input;  // as parsed here, for --field-out
+  auto bytes = draco_upload(a.input, a.quantization_bits, a.field_out.empty() ? nullptr : &input);
   if (!bytes.ok()) return fail(bytes.status());
+  if (!a.field_out.empty()) outputs.input_mesh = &input;
   auto spec = build_spec(a, bytes->size());
   if (!spec.ok()) return fail(spec.status());
   outputs.read_ms = ms_since(start);
@@ -137,15 +141,21 @@ int run_submit(SubmitArgs& a) {
 // format parsed here and encoded with sequential connectivity (speed 10),
 // which keeps every vertex and face in its order, so the server runs on
 // exactly what `vpremesh local` would (with lossless positions).
-StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits) {
+StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits, Mesh* parsed) {
   VPR_ASSIGN_OR_RETURN(const MeshFormat format, format_from_path(path));
-  if (format == MeshFormat::kDraco) return read_bytes(path);
-  VPR_ASSIGN_OR_RETURN(const Mesh mesh, read_mesh(path));
+  if (format == MeshFormat::kDraco) {
+    if (parsed) {
+      VPR_ASSIGN_OR_RETURN(*parsed, read_mesh(path));
+    }
+    return read_bytes(path);
+  }
+  VPR_ASSIGN_OR_RETURN(Mesh mesh, read_mesh(path));
   DracoOptions draco;
   draco.position_bits = quantization_bits;
   draco.speed = 10;
   auto bytes = encode_draco(mesh, nullptr, draco);
   if (!bytes.ok()) return Status(bytes.status().code(), path + ": " + bytes.status().message());
+  if (parsed) *parsed = std::move(mesh);
   return bytes;
 }
 
@@ -165,7 +175,8 @@ Command add_submit_command(CLI::App& app) {
   cmd->add_option("-o,--output", args->output, "Output mesh (.drc .ply .obj)");
   add_server_flags(cmd, args->server, args->deadline_s);
   add_pipeline_flags(cmd, args->options, args->flags);
-  cmd->add_option("--field-out", args->field_out, "Write the result colored by its saliency field (.ply .drc .obj)");
+  cmd->add_option("--field-out", args->field_out,
+                  "Write the input mesh colored by its saliency field, as local --field-out (.ply .drc .obj)");
   cmd->add_flag("--json", args->json, "Print a JSON report instead of the table (no progress lines)");
   cmd->add_flag("--no-wait", args->no_wait, "Only queue the job and print its id (follow it with watch)");
   cmd->add_option("--quantization-bits", args->quantization_bits,

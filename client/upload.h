@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/mesh.h"
 #include "pipeline/status.h"
 #include "vpremesh/v1/remesh.pb.h"
 
@@ -20,8 +21,9 @@ inline constexpr size_t kChunkBytes = size_t(1) << 20;
 // The bytes to upload for `path` (defined in submit_command.cpp): a .drc file
 // as it is (the server validates it); any other format parsed here and encoded
 // with sequential connectivity, which keeps every vertex and face in its
-// order. quantization_bits: Draco position bits, 0 = lossless.
-StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits);
+// order. quantization_bits: Draco position bits, 0 = lossless. parsed (when
+// not null) receives the mesh as read here, the same read as `vpremesh local`'s.
+StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits, Mesh* parsed = nullptr);
 
 // Writes the spec and then the file in chunks. False when the server closed
 // the stream early (a refusal): its status then comes from Finish().

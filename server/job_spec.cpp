@@ -128,15 +128,10 @@ Status job_options_from_spec(const v1::JobSpec& spec, JobOptions* out) {
   if (!v1::DevicePreference_IsValid(spec.device()))
     return invalid_argument("device is " + str(int(spec.device())) +
                             "; it must be DEVICE_ANY (0), DEVICE_CPU (1) or DEVICE_CUDA (2)");
-  // The pipeline returns neither (PipelineResult holds only the point count).
-  if (spec.return_saliency_points())
-    return invalid_argument(
-        "return_saliency_points is not supported by this server yet (only the count, in "
-        "`completed`)");
-  if (spec.return_debug_images()) return invalid_argument("return_debug_images is not supported by this server yet");
   JobOptions o;
   o.pipeline.target_vertices = spec.target_vertices();
   VPR_RETURN_IF_ERROR(pipeline_options_from_proto(spec.options(), &o.pipeline));
+  o.pipeline.keep_saliency_points = spec.return_saliency_points();
   // Backstop: the pipeline's own checks (its messages do not name proto fields).
   if (Status s = validate_options(o.pipeline); !s.ok()) return invalid_argument("options: " + s.message());
   o.priority = spec.priority();

@@ -28,8 +28,10 @@ inline constexpr int kDefaultResultQuantizationBits = 14;
 
 // What a job needs besides the mesh, in the pipeline's own terms.
 struct JobOptions {
-  PipelineOptions pipeline;  // renderer, shared_renderer, device and keep_going are the worker's to set
-  int priority = 0;          // [-10, 10], higher first
+  // renderer, shared_renderer, device, keep_going and debug_dir are the
+  // worker's to set; keep_saliency_points follows return_saliency_points.
+  PipelineOptions pipeline;
+  int priority = 0;                                               // [-10, 10], higher first
   int result_quantization_bits = kDefaultResultQuantizationBits;  // [1, 30]
   v1::DevicePreference device = v1::DEVICE_ANY;
 };

@@ -4,6 +4,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
 #include <new>
 
 #include "io/mesh_io.h"
@@ -52,6 +56,69 @@ uint64_t publish_floats(JobQueue& queue, const std::string& id, const std::vecto
   return values.size() * sizeof(float);
 }
 
+// A fresh directory under the system's temporary directory for one job's
+// debug output, removed with everything in it when the job is done (whatever
+// happens).
+class TempDir {
+ public:
+  static StatusOr<std::unique_ptr<TempDir>> create(const std::string& job_id) {
+    static std::atomic<uint64_t> counter{0};
+    std::error_code ec;
+    const std::filesystem::path base = std::filesystem::temp_directory_path(ec);
+    if (ec) return internal_error("no temporary directory for the debug images: " + ec.message());
+    std::string safe_id = job_id;  // the queue's ids are file-safe already; be sure
+    for (char& c : safe_id)
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '_';
+    const std::filesystem::path dir =
+        base / ("vpremesh-debug-" + safe_id + "-" + std::to_string(getpid()) + "-" + std::to_string(counter++));
+    // create_directory is false when the path already exists: never reuse one.
+    if (!std::filesystem::create_directory(dir, ec) || ec)
+      return internal_error("cannot create " + dir.string() + " for the debug images" +
+                            (ec ? ": " + ec.message() : ": it exists"));
+    return std::unique_ptr<TempDir>(new TempDir(dir));
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+    if (ec) spdlog::warn("cannot remove {}: {}", path_.string(), ec.message());
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  explicit TempDir(std::filesystem::path p) : path_(std::move(p)) {}
+  std::filesystem::path path_;
+};
+
+// Sends every PNG in `dir` (by name) as a `debug_image` event. One event must
+// stay under the message limit, so an image over kMaxChunkBytes is left out
+// (logged). Returns the bytes sent.
+uint64_t publish_debug_images(JobQueue& queue, const std::string& id, const std::filesystem::path& dir) {
+  std::vector<std::filesystem::path> pngs;
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    if (entry.is_regular_file() && entry.path().extension() == ".png") pngs.push_back(entry.path());
+  std::sort(pngs.begin(), pngs.end());
+  uint64_t sent = 0;
+  for (const std::filesystem::path& png : pngs) {
+    const uintmax_t size = std::filesystem::file_size(png);
+    if (size > kMaxChunkBytes) {
+      spdlog::warn("job {}: debug image {} is {} bytes, over the {} byte limit of one event: not sent", id,
+                   png.filename().string(), size, kMaxChunkBytes);
+      continue;
+    }
+    std::ifstream f(png, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    if (f.bad()) throw std::runtime_error("cannot read debug image " + png.string());
+    v1::JobEvent e;
+    e.mutable_debug_image()->set_name(png.filename().string());
+    e.mutable_debug_image()->set_png(std::move(bytes));
+    sent += size;
+    queue.publish(id, std::move(e));
+  }
+  return sent;
+}
+
 void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx) {
   const auto run_start = Clock::now();
   const std::string& id = job.id;
@@ -89,6 +156,14 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
     queue.publish(id, std::move(e));
     if (ctx.metrics) ctx.metrics->stage_seconds(t.name).observe(t.ms / 1000.0);
   };
+
+  std::unique_ptr<TempDir> debug_dir;  // removed when the job ends, however it ends
+  if (job.spec.return_debug_images()) {
+    auto dir = TempDir::create(id);
+    if (!dir.ok()) return queue.publish(id, failed_event(dir.status()));
+    debug_dir = std::move(dir).value();
+    po.debug_dir = debug_dir->path().string();
+  }
 
   if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
   v1::Completed summary;
@@ -132,6 +207,14 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
   }
   if (job.spec.return_saliency())
     bytes_out += publish_floats(queue, id, result.saliency, [](v1::JobEvent* e) { return e->mutable_saliency(); });
+  if (job.spec.return_saliency_points())
+    bytes_out += publish_floats(queue, id, result.saliency_point_positions,
+                                [](v1::JobEvent* e) { return e->mutable_saliency_points(); });
+  if (job.spec.return_input_saliency())
+    bytes_out +=
+        publish_floats(queue, id, result.input_importance, [](v1::JobEvent* e) { return e->mutable_input_saliency(); });
+  if (debug_dir) bytes_out += publish_debug_images(queue, id, debug_dir->path());
+  debug_dir.reset();  // gone before `completed` (on the other paths, as the function returns)
 
   summary.set_output_vertices(uint32_t(result.mesh.vertex_count()));
   summary.set_output_faces(uint32_t(result.mesh.face_count()));

@@ -130,8 +130,6 @@ INSTANTIATE_TEST_SUITE_P(
         BadField{"priority", [](v1::JobSpec* s) { s->set_priority(11); }},
         BadField{"result_quantization_bits", [](v1::JobSpec* s) { s->set_result_quantization_bits(31); }},
         BadField{"device", [](v1::JobSpec* s) { s->set_device(v1::DevicePreference(7)); }},
-        BadField{"return_saliency_points", [](v1::JobSpec* s) { s->set_return_saliency_points(true); }},
-        BadField{"return_debug_images", [](v1::JobSpec* s) { s->set_return_debug_images(true); }},
         BadField{"options.views", [](v1::JobSpec* s) { s->mutable_options()->set_views(8); }},
         BadField{"options.resolution", [](v1::JobSpec* s) { s->mutable_options()->set_resolution(32); }},
         BadField{"options.rotation", [](v1::JobSpec* s) { s->mutable_options()->add_rotation(1); }},

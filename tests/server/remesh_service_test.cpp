@@ -9,7 +9,9 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <thread>
 
 #include "io/mesh_io.h"
@@ -190,6 +192,76 @@ TEST(RemeshService, RemeshStreamsTheSameResultAsVpremeshLocal) {
   ASSERT_EQ(replay.events.size(), out.events.size());
   for (size_t i = 0; i < out.events.size(); ++i)
     EXPECT_EQ(replay.events[i].SerializeAsString(), out.events[i].SerializeAsString());
+}
+
+// The optional payloads: the saliency points (x, y, z in the input's units),
+// the per-view debug PNGs and the field on the input mesh.
+TEST(RemeshService, ReturnsSaliencyPointsDebugImagesAndTheInputField) {
+  Server s(1);
+  const std::vector<uint8_t> mesh = draco_sphere();
+  v1::JobSpec spec = small_spec();
+  spec.set_return_saliency_points(true);
+  spec.set_return_debug_images(true);
+  spec.set_return_input_saliency(true);
+  const Outcome out = remesh(s, upload(spec, mesh));
+  ASSERT_TRUE(out.status.ok()) << out.status.error_message();
+  ASSERT_TRUE(out.events.back().has_completed());
+  const v1::Completed& done = out.events.back().completed();
+
+  std::vector<float> points, field;
+  std::vector<std::string> images;
+  for (const v1::JobEvent& e : out.events) {
+    if (e.has_saliency_points()) {
+      EXPECT_EQ(e.saliency_points().offset(), points.size());
+      EXPECT_LE(size_t(e.saliency_points().values_size()) * sizeof(float), kMaxChunkBytes);
+      points.insert(points.end(), e.saliency_points().values().begin(), e.saliency_points().values().end());
+    }
+    if (e.has_input_saliency()) {
+      EXPECT_EQ(e.input_saliency().offset(), field.size());
+      field.insert(field.end(), e.input_saliency().values().begin(), e.input_saliency().values().end());
+    }
+    if (e.has_debug_image()) {
+      EXPECT_FALSE(e.debug_image().name().empty());
+      EXPECT_EQ(e.debug_image().png().substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8)) << e.debug_image().name();
+      images.push_back(e.debug_image().name());
+    }
+  }
+
+  // Saliency points: 3 floats each, on the input's surface (its bounding box, grown by 1%).
+  auto input = parse_mesh(mesh.data(), mesh.size(), MeshFormat::kDraco);
+  ASSERT_TRUE(input.ok());
+  ASSERT_GT(done.saliency_points(), 0u);
+  EXPECT_EQ(points.size(), 3 * done.saliency_points());
+  float lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = input->positions[a];
+  for (size_t i = 0; i < input->positions.size(); ++i) {
+    lo[i % 3] = std::min(lo[i % 3], input->positions[i]);
+    hi[i % 3] = std::max(hi[i % 3], input->positions[i]);
+  }
+  size_t outside = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const int a = int(i % 3);
+    const float margin = 0.01f * (hi[a] - lo[a]);
+    if (!std::isfinite(points[i]) || points[i] < lo[a] - margin || points[i] > hi[a] + margin) ++outside;
+  }
+  EXPECT_EQ(outside, 0u);
+
+  // Debug images: six views, several PNGs each.
+  EXPECT_GE(images.size(), 6u);
+  EXPECT_NE(std::find(images.begin(), images.end(), "view_px_overlay.png"), images.end());
+
+  // The input field: one value per input vertex, in [min_importance, 1].
+  ASSERT_EQ(field.size(), input->vertex_count());
+  const float min_importance = PipelineOptions{}.field.min_importance;
+  for (float v : field) {
+    EXPECT_GE(v, min_importance);
+    EXPECT_LE(v, 1.0f);
+  }
+
+  // The job's temporary debug directory is gone.
+  const std::string prefix = "vpremesh-debug-" + out.events[0].job_id() + "-";
+  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::temp_directory_path()))
+    EXPECT_NE(entry.path().filename().string().rfind(prefix, 0), 0u) << entry.path();
 }
 
 TEST(RemeshService, BadUploadsAreInvalidArgumentWithTheReason) {

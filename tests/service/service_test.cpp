@@ -55,7 +55,8 @@ class ServiceTest : public ::testing::Test {
 TEST_F(ServiceTest, SubmitEqualsLocalAndJobCommandsAnswer) {
   START_SERVER(server);
   const std::string model = "../shared/models/spot.obj";
-  CliRun local = run_cli("local " + model + " -o " + path("local.drc") + " -n 800 --seed 7 --json");
+  CliRun local = run_cli("local " + model + " -o " + path("local.drc") + " -n 800 --seed 7 --json --field-out " +
+                         path("local_field.ply"));
   ASSERT_EQ(local.code, 0) << local.err;
   CliRun remote = run_cli("submit " + model + " -o " + path("remote.drc") + " -n 800 --seed 7 --json --server " +
                           server->address() + " --field-out " + path("field.ply"));
@@ -91,9 +92,11 @@ TEST_F(ServiceTest, SubmitEqualsLocalAndJobCommandsAnswer) {
   auto saliency = read_saliency(path("remote.drc"));
   ASSERT_TRUE(saliency.ok());
   EXPECT_EQ(saliency->size(), b->vertex_count());
+  // --field-out: the input mesh colored by its field, the same file as local's.
   auto field = read_saliency(path("field.ply"));
   ASSERT_TRUE(field.ok()) << field.status().to_string();
-  EXPECT_EQ(field->size(), b->vertex_count());
+  EXPECT_EQ(field->size(), size_t(rj["input"]["vertices"]));
+  EXPECT_TRUE(file(path("local_field.ply")) == file(path("field.ply")));
 
   const std::string job = rj["job_id"];
   const std::string at = " --server " + server->address();

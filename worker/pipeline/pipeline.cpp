@@ -92,7 +92,6 @@ class StageRunner {
   }
 
  private:
-
   const PipelineOptions& options_;
   PipelineResult* result_;
 };
@@ -290,6 +289,10 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
   }
   for (const auto& p : view_points) saliency_points.insert(saliency_points.end(), p.begin(), p.end());
   result.saliency_points = saliency_points.size() / 3;
+  if (options.keep_saliency_points) {
+    result.saliency_point_positions = saliency_points;
+    denormalize(norm, &result.saliency_point_positions);
+  }
 
   if (!options.debug_dir.empty()) {
     VPR_RETURN_IF_ERROR(stage.run("debug_output", cpu, [&]() -> Status {
@@ -363,8 +366,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     // boundary (an open one would fail the seam check and cost a second run).
     MeshingOptions meshing = options.meshing;
     if (!(meshing.spacing > 0)) meshing.spacing = spacing_out;
-    const bool slabs_possible =
-        meshing.points_per_slab > 0 && particles.size() / 3 >= 2 * meshing.points_per_slab;
+    const bool slabs_possible = meshing.points_per_slab > 0 && particles.size() / 3 >= 2 * meshing.points_per_slab;
     if (slabs_possible && !has_no_boundary(input)) meshing.points_per_slab = 0;
     VPR_RETURN_IF_ERROR(
         mesh_points(particles.data(), particles.size() / 3, meshing, &result.mesh, &source, &result.meshing));

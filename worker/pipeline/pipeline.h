@@ -12,8 +12,8 @@
 #include "adaptive_sampling.h"
 #include "awlop.h"
 #include "exec_context.h"
-#include "job_device.h"
 #include "image_saliency.h"
+#include "job_device.h"
 #include "mesh.h"
 #include "meshing.h"
 #include "saliency_field.h"
@@ -49,7 +49,7 @@ struct PipelineOptions {
   // tens of milliseconds). Null: the job creates its own of kind `renderer`.
   Renderer* shared_renderer = nullptr;
   DevicePolicy device = DevicePolicy::kAuto;
-  int cuda_device = 0;            // which GPU, when one is used
+  int cuda_device = 0;                    // which GPU, when one is used
   DeviceBudget* device_budget = nullptr;  // null: no per-job device memory limit
   ImageSaliencyOptions image;
   SaliencyFieldOptions field;
@@ -57,6 +57,9 @@ struct PipelineOptions {
   AwlopOptions awlop;
   MeshingOptions meshing;
   std::string debug_dir;  // when set: per-view PNGs and saliency points as PLY
+  // Keep the saliency points' positions in PipelineResult (the service
+  // returns them on request; a local run does not pay for the copy).
+  bool keep_saliency_points = false;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
   // Called as each stage ends (from the pipeline's thread), e.g. to stream
@@ -69,10 +72,13 @@ struct PipelineResult {
   std::vector<float> saliency;          // #V_out importance values in [min_importance, 1]
   std::vector<float> input_importance;  // #V_in: the saliency field on the input mesh
   size_t saliency_points = 0;           // 3D points unprojected from feature pixels
+  // x, y, z per saliency point, in the input's units; only with
+  // PipelineOptions::keep_saliency_points (empty otherwise).
+  std::vector<float> saliency_point_positions;
   std::vector<StageTiming> stages;
   double total_ms = 0;
-  std::string renderer;  // renderer description
-  std::string device;    // where the twins ran: "cpu" or "cuda:0 NVIDIA H100 ..."
+  std::string renderer;    // renderer description
+  std::string device;      // where the twins ran: "cpu" or "cuda:0 NVIDIA H100 ..."
   std::string cpu_reason;  // why the CPU under DevicePolicy::kAuto ("built without CUDA", no device, ...)
   AwlopStats awlop;
   MeshingStats meshing;
