@@ -91,28 +91,28 @@ int print_status(const v1::JobStatus& s, bool json) {
   return kExitOk;
 }
 
-int run_status(const JobArgs& a) {
+// GetJob and CancelJob: the same unary call shape, JobRef in, JobStatus out.
+using UnaryJobCall = grpc::Status (v1::RemeshService::Stub::*)(grpc::ClientContext*, const v1::JobRef&,
+                                                                v1::JobStatus*);
+
+int run_unary(const JobArgs& a, UnaryJobCall method) {
   auto stub = v1::RemeshService::NewStub(make_channel(a.server));
   grpc::ClientContext context;
   set_deadline(context, a.deadline_s);
   v1::JobRef ref;
   ref.set_job_id(a.job_id);
   v1::JobStatus status;
-  const grpc::Status call = stub->GetJob(&context, ref, &status);
+  const grpc::Status call = ((*stub).*method)(&context, ref, &status);
   if (!call.ok()) return report_call_error(call, a.server);
   return print_status(status, a.json);
 }
 
+int run_status(const JobArgs& a) {
+  return run_unary(a, &v1::RemeshService::Stub::GetJob);
+}
+
 int run_cancel(const JobArgs& a) {
-  auto stub = v1::RemeshService::NewStub(make_channel(a.server));
-  grpc::ClientContext context;
-  set_deadline(context, a.deadline_s);
-  v1::JobRef ref;
-  ref.set_job_id(a.job_id);
-  v1::JobStatus status;
-  const grpc::Status call = stub->CancelJob(&context, ref, &status);
-  if (!call.ok()) return report_call_error(call, a.server);
-  return print_status(status, a.json);
+  return run_unary(a, &v1::RemeshService::Stub::CancelJob);
 }
 
 int run_watch(const JobArgs& a) {
