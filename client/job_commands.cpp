@@ -92,8 +92,7 @@ int print_status(const v1::JobStatus& s, bool json) {
 }
 
 // GetJob and CancelJob: the same unary call shape, JobRef in, JobStatus out.
-using UnaryJobCall = grpc::Status (v1::RemeshService::Stub::*)(grpc::ClientContext*, const v1::JobRef&,
-                                                                v1::JobStatus*);
+using UnaryJobCall = grpc::Status (v1::RemeshService::Stub::*)(grpc::ClientContext*, const v1::JobRef&, v1::JobStatus*);
 
 int run_unary(const JobArgs& a, UnaryJobCall method) {
   auto stub = v1::RemeshService::NewStub(make_channel(a.server));
