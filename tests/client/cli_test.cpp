@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "cli_runner.h"
 #include "eval/mesh_quality.h"
 #include "io/mesh_io.h"
 
@@ -17,23 +18,8 @@ namespace fs = std::filesystem;
 namespace vpr {
 namespace {
 
-struct CliRun {
-  int code = -1;
-  std::string out;  // stdout and stderr together
-};
-
-CliRun run_cli(const std::string& args) {
-  const std::string cmd = std::string(VPR_CLI_PATH) + " " + args + " 2>&1";
-  CliRun r;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (!pipe) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
-  const int status = pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using vpr::testing::CliRun;
+using vpr::testing::run_cli;
 
 class CliTest : public ::testing::Test {
  protected:
@@ -54,8 +40,8 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
   const std::string out = path("spot.drc");
   CliRun r = run_cli("local ../shared/models/spot.obj -o " + out + " --target-vertices 800 --json --field-out " +
                      path("field.ply") + " --debug-dir " + path("debug"));
-  ASSERT_EQ(r.code, 0) << r.out;
-  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(r.code, 0) << r.all();
+  const nlohmann::json j = nlohmann::json::parse(r.all());
   EXPECT_EQ(j["input"]["vertices"], 2930);
   const int v = j["output"]["vertices"];
   EXPECT_NEAR(v, 800, 16);
@@ -75,8 +61,8 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
 
   // The Draco result is itself a valid input (the service's wire format).
   CliRun again = run_cli("local " + out + " -o " + path("again.obj") + " --target-vertices 400 --json");
-  ASSERT_EQ(again.code, 0) << again.out;
-  EXPECT_EQ(nlohmann::json::parse(again.out)["input"]["vertices"], v);
+  ASSERT_EQ(again.code, 0) << again.all();
+  EXPECT_EQ(nlohmann::json::parse(again.all())["input"]["vertices"], v);
   auto obj = read_mesh(path("again.obj"));
   ASSERT_TRUE(obj.ok()) << obj.status().to_string();
   EXPECT_NEAR(double(obj->vertex_count()), 400.0, 8.0);
@@ -91,9 +77,9 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
 
 TEST_F(CliTest, TablePrintsEveryStage) {
   CliRun r = run_cli("local ../shared/models/suzanne.obj -o " + path("s.ply") + " --target-vertices 300");
-  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_EQ(r.code, 0) << r.all();
   for (const char* stage : {"render", "image_saliency", "saliency_field", "awlop", "meshing", "total"})
-    EXPECT_NE(r.out.find(stage), std::string::npos) << r.out;
+    EXPECT_NE(r.all().find(stage), std::string::npos) << r.all();
 }
 
 TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
@@ -122,15 +108,15 @@ TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
   };
   for (const Case& c : cases) {
     CliRun r = run_cli(c.args);
-    EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.out;
-    EXPECT_NE(r.out.find(c.needle), std::string::npos) << c.args << "\n" << r.out;
+    EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.all();
+    EXPECT_NE(r.all().find(c.needle), std::string::npos) << c.args << "\n" << r.all();
   }
 }
 
 TEST_F(CliTest, EvalOfAMeshAgainstItselfIsZero) {
   CliRun r = run_cli("eval ../shared/models/spot.obj ../shared/models/spot.obj --json --samples 20000");
-  ASSERT_EQ(r.code, 0) << r.out;
-  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(r.code, 0) << r.all();
+  const nlohmann::json j = nlohmann::json::parse(r.all());
   EXPECT_LT(double(j["hausdorff"]["max"]), 1e-9);
   EXPECT_EQ(j["candidate"]["vertices"], 2930);
   EXPECT_EQ(j["candidate"]["non_manifold_edges"], 0);

@@ -12,27 +12,14 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "cli_runner.h"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-struct CliRun {
-  int code = -1;
-  std::string out;  // stdout
-};
-
-CliRun run_cli(const std::string& args) {
-  const std::string cmd = std::string(VPR_CLI_PATH) + " " + args + " 2>/dev/null";
-  CliRun r;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (!pipe) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
-  const int status = pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using vpr::testing::CliRun;
+using vpr::testing::run_cli;
 
 std::string slurp(const fs::path& p) {
   std::ifstream f(p, std::ios::binary);

@@ -159,18 +159,8 @@ TEST_F(BenchCliTest, OpenLoopCountsTheQueueInTheLatency) {
 
 // Nothing listening: exit 5 and one line naming the address.
 TEST(BenchCli, ClosedPortExitsUnavailable) {
-  std::string closed;
-  {
-    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
-    socklen_t len = sizeof addr;
-    ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
-    closed = "127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
-    ::close(fd);
-  }
+  const std::string closed = vpr::testing::closed_loopback_address();
+  ASSERT_FALSE(closed.empty());
   const CliRun r = run_cli("bench --server " + closed + kJob + " -c 1 -r 2");
   EXPECT_EQ(r.code, 5) << r.err;
   EXPECT_EQ(r.err.rfind("vpremesh: UNAVAILABLE: cannot reach the server at " + closed, 0), 0u) << r.err;

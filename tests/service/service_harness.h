@@ -22,6 +22,7 @@
 #include <thread>
 #include <vector>
 
+#include "cli_runner.h"
 #include "io/mesh_io.h"
 #include "vpremesh/v1/remesh.grpc.pb.h"
 
@@ -141,31 +142,8 @@ class ServerProcess {
   bool eof_ = false;
 };
 
-struct CliRun {
-  int code = -1;
-  std::string out, err;
-};
-
-// Runs `vpremesh ARGS` (a shell command line), stdout and stderr apart.
-inline CliRun run_cli(const std::string& args) {
-  static std::atomic<int> counter{0};
-  const std::string err_path = (std::filesystem::temp_directory_path() /
-                                ("vpremesh_cli_err_" + std::to_string(::getpid()) + "_" + std::to_string(counter++)))
-                                   .string();
-  const std::string cmd = std::string(VPR_CLI_PATH) + " " + args + " 2>" + err_path;
-  CliRun r;
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (!pipe) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, pipe)) > 0) r.out.append(buf, n);
-  const int status = ::pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream err(err_path, std::ios::binary);
-  r.err.assign(std::istreambuf_iterator<char>(err), std::istreambuf_iterator<char>());
-  std::filesystem::remove(err_path);
-  return r;
-}
+using vpr::testing::CliRun;
+using vpr::testing::run_cli;
 
 inline std::unique_ptr<v1::RemeshService::Stub> make_stub(const std::string& address) {
   grpc::ChannelArguments args;

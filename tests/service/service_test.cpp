@@ -408,18 +408,8 @@ TEST_F(ServiceTest, HealthReflectionAndUnreachableServer) {
   EXPECT_TRUE(stream->Finish().ok());
 
   // A port nothing listens on: bound, then closed.
-  std::string closed;
-  {
-    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
-    socklen_t len = sizeof addr;
-    ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
-    closed = "127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
-    ::close(fd);
-  }
+  const std::string closed = vpr::testing::closed_loopback_address();
+  ASSERT_FALSE(closed.empty());
   CliRun r = run_cli("status some-job --server " + closed);
   EXPECT_EQ(r.code, 5) << r.err;
   EXPECT_EQ(r.err.rfind("vpremesh: UNAVAILABLE: cannot reach the server at " + closed, 0), 0u) << r.err;
