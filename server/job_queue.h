@@ -1,7 +1,7 @@
 // The queue between the RPCs and the workers. The RPC code (remesh_service)
 // and the workers (worker_pool) see only this interface: EmbeddedQueue keeps
-// everything in this process; a Redis Streams queue (one stream of jobs, one
-// stream of events per job) can implement the same calls for many hosts.
+// everything in this process; RedisQueue (one stream of jobs per priority,
+// one stream of events per job) implements the same calls for many hosts.
 //
 // A job's events are its history: every state change is an event, stored in
 // order with sequence numbers 0, 1, 2, ..., so Watch replays them from 0 and
@@ -77,6 +77,10 @@ class JobQueue {
   virtual size_t expire() = 0;
 
   virtual QueueStats stats() = 0;
+
+  // Whether the queue's store can be reached (health checks). UNAVAILABLE
+  // names the store and why.
+  virtual Status health() { return Status::Ok(); }
 };
 
 }  // namespace vpr::service

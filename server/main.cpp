@@ -1,5 +1,7 @@
 // vpremesh-server: the remeshing service. An in-process job queue feeds N
-// worker threads running the pipeline; gRPC (callback API) in front, with the
+// worker threads running the pipeline, or (--queue redis://) a Redis Streams
+// queue shared with other replicas feeds vpremesh-worker processes on other
+// hosts; gRPC (callback API) in front, with the
 // standard health service and server reflection; Prometheus metrics over
 // HTTP. SIGTERM drains: new jobs are refused, waiting ones fail with
 // UNAVAILABLE, running ones get --drain-grace seconds to finish.
@@ -16,6 +18,7 @@
 
 #include "server/embedded_queue.h"
 #include "server/metrics_http.h"
+#include "server/redis_queue.h"
 #include "server/remesh_service.h"
 #include "server/server_options.h"
 #include "server/service_metrics.h"
@@ -65,21 +68,35 @@ int run(const ServerOptions& o) {
   const DevicePolicy policy = o.device == "cpu"    ? DevicePolicy::kCpu
                               : o.device == "cuda" ? DevicePolicy::kCuda
                                                    : DevicePolicy::kAuto;
-  // On the CPU one worker is enough: each stage already uses every core (TBB).
-  const int workers = o.workers > 0 ? o.workers : std::max(gpus, 1);
+  // On the CPU one worker is enough: each stage already uses every core
+  // (TBB). With a Redis queue vpremesh-worker processes run the jobs.
+  const bool redis = uses_redis(o);
+  const int workers = o.workers >= 0 ? o.workers : redis ? 0 : std::max(gpus, 1);
   auto renderer = parse_renderer_kind(o.renderer);
   if (!renderer.ok()) return fail(renderer.status().message(), 2);
 
   MetricsRegistry registry;
   ServiceMetrics metrics(registry);
-  EmbeddedQueueOptions qo;
-  qo.limits = o.limits;
-  qo.result_ttl = seconds(o.result_ttl_s);
-  qo.on_state = [&metrics](const std::string&, v1::JobState state) {
+  auto on_state = [&metrics](const std::string&, v1::JobState state) {
     if (state == v1::JOB_STATE_SUCCEEDED || state == v1::JOB_STATE_FAILED || state == v1::JOB_STATE_CANCELLED)
       metrics.finished(state).inc();
   };
-  EmbeddedQueue queue(qo);
+  std::unique_ptr<JobQueue> queue;
+  if (redis) {
+    RedisQueueOptions ro;
+    ro.endpoint = parse_redis_url(o.queue).value();
+    ro.limits = o.limits;
+    ro.result_ttl = seconds(o.result_ttl_s);
+    ro.upload_ttl = seconds(o.upload_ttl_s);
+    ro.on_state = on_state;
+    queue = std::make_unique<RedisQueue>(ro);
+  } else {
+    EmbeddedQueueOptions qo;
+    qo.limits = o.limits;
+    qo.result_ttl = seconds(o.result_ttl_s);
+    qo.on_state = on_state;
+    queue = std::make_unique<EmbeddedQueue>(qo);
+  }
 
   WorkerPoolOptions wo;
   wo.workers = workers;
@@ -88,27 +105,32 @@ int run(const ServerOptions& o) {
   wo.cuda_devices = policy == DevicePolicy::kCpu ? 0 : gpus;
   wo.gpu_job_bytes = o.gpu_job_mib << 20;
   wo.limits = o.limits;
-  WorkerPool pool(queue, wo, &metrics);
+  WorkerPool pool(*queue, wo, &metrics);
   // On every return: wake the workers so the pool's destructor can join them.
   struct CloseOnExit {
-    EmbeddedQueue& queue;
+    JobQueue& queue;
     ~CloseOnExit() { queue.close(); }
-  } close_on_exit{queue};
+  } close_on_exit{*queue};
   std::string why;
   const size_t live = pool.start(&why);
-  spdlog::info("{} of {} workers live (device {}, {} GPU(s))", live, workers, o.device, wo.cuda_devices);
-  if (live == 0) spdlog::error("no worker can run jobs: {}; serving NOT_SERVING", why);
+  if (redis)
+    spdlog::info("job queue {} (Redis Streams); {} worker(s) in this process", parse_redis_url(o.queue)->url(), live);
+  else
+    spdlog::info("{} of {} workers live (device {}, {} GPU(s))", live, workers, o.device, wo.cuda_devices);
+  if (!redis && live == 0) spdlog::error("no worker can run jobs: {}; serving NOT_SERVING", why);
 
   std::atomic<bool> draining{false};
   ServiceConfig config;
   config.limits = o.limits;
-  config.has_cuda = wo.cuda_devices > 0;
-  config.admission = [&pool, &draining, why]() -> Status {
+  // With a shared queue the workers are elsewhere; a DEVICE_CUDA job waits
+  // for one with a GPU.
+  config.has_cuda = redis || wo.cuda_devices > 0;
+  config.admission = [&pool, &draining, why, redis]() -> Status {
     if (draining) return unavailable("the server is shutting down and accepts no new jobs; retry elsewhere");
-    if (pool.live() == 0) return unavailable("no worker can run jobs on this server: " + why);
+    if (!redis && pool.live() == 0) return unavailable("no worker can run jobs on this server: " + why);
     return Status::Ok();
   };
-  RemeshServiceImpl service(queue, config, &metrics);
+  RemeshServiceImpl service(*queue, config, &metrics);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -122,7 +144,10 @@ int run(const ServerOptions& o) {
     server->GetHealthCheckService()->SetServingStatus(serving);
     server->GetHealthCheckService()->SetServingStatus(kServiceName, serving);
   };
-  set_serving(live > 0);
+  // Serving while some worker can run jobs (embedded) or Redis answers.
+  Status queue_health = queue->health();
+  if (!queue_health.ok()) spdlog::error("{}; serving NOT_SERVING until it answers", queue_health.message());
+  set_serving(redis ? queue_health.ok() : live > 0);
 
   // The parseable line tests and scripts wait for.
   std::printf("vpremesh-server listening on %s:%d\n", host_of(o.listen).c_str(), port);
@@ -136,7 +161,7 @@ int run(const ServerOptions& o) {
   MetricsHttpServer http;
   if (!o.metrics_listen.empty()) {
     auto metrics_port = http.start(o.metrics_listen, [&] {
-      metrics.set_queue(queue.stats());
+      metrics.set_queue(queue->stats());
       return registry.render();
     });
     if (!metrics_port.ok()) return fail(metrics_port.status().message(), 2);
@@ -144,18 +169,30 @@ int run(const ServerOptions& o) {
     std::fflush(stdout);
   }
 
-  // Wait for SIGTERM / SIGINT, forgetting expired results once a second.
+  // Wait for SIGTERM / SIGINT, forgetting expired results and checking the
+  // queue's store once a second.
   int signal_number = -1;
   while (signal_number < 0) {
     timespec one_second{1, 0};
     signal_number = sigtimedwait(&signals, nullptr, &one_second);
-    queue.expire();
+    queue->expire();
+    if (redis && signal_number < 0) {
+      Status h = queue->health();
+      if (h.ok() != queue_health.ok()) {
+        if (h.ok())
+          spdlog::info("the job queue answers again: SERVING");
+        else
+          spdlog::error("{}: NOT_SERVING", h.message());
+        set_serving(h.ok());
+      }
+      queue_health = h;
+    }
   }
 
   spdlog::info("{}: draining (grace {} s)", signal_number == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_grace_s);
   draining = true;
   set_serving(false);
-  const size_t failed = queue.drain(unavailable(
+  const size_t failed = queue->drain(unavailable(
       "the server is shutting down: the job was still waiting in the queue and did not run; submit it again"));
   if (failed) spdlog::info("{} waiting job(s) failed with UNAVAILABLE", failed);
   if (!pool.wait_idle(seconds(o.drain_grace_s))) {
@@ -169,7 +206,7 @@ int run(const ServerOptions& o) {
   // Let open streams send their last events, then end them.
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
   http.stop();
-  queue.close();
+  queue->close();
   if (pool.busy() > 0) {
     spdlog::warn("exiting with a job still inside a pipeline stage");
     std::fflush(nullptr);

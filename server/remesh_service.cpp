@@ -81,8 +81,12 @@ class Upload {
 // every new event and by the stream after every write.
 class EventPump : public std::enable_shared_from_this<EventPump> {
  public:
-  EventPump(JobQueue& queue, std::string job_id, EventWriter write, Finisher finish)
-      : queue_(queue), job_id_(std::move(job_id)), write_(std::move(write)), finish_(std::move(finish)) {}
+  EventPump(JobQueue& queue, std::string job_id, EventWriter write, Finisher finish, uint64_t from_sequence = 0)
+      : queue_(queue),
+        job_id_(std::move(job_id)),
+        write_(std::move(write)),
+        finish_(std::move(finish)),
+        next_(from_sequence) {}
 
   // Subscribes and sends what is already there.
   void start() {
@@ -111,6 +115,12 @@ class EventPump : public std::enable_shared_from_this<EventPump> {
       writing_ = true;
       write_(&current_);
     } else if (batch->ended) {
+      // A re-attached Watch (from_sequence past the end) never saw the last
+      // event: the job's status has the outcome.
+      if (next_ > 0 && outcome_.ok()) {
+        auto status = queue_.status(job_id_);
+        if (status.ok() && status->has_failure()) outcome_ = to_grpc(status->failure());
+      }
       finish_locked(outcome_);
     }
   }
@@ -290,10 +300,10 @@ class SubmitReactor final : public grpc::ServerReadReactor<v1::RemeshRequest> {
 
 class WatchReactor final : public grpc::ServerWriteReactor<v1::JobEvent> {
  public:
-  WatchReactor(JobQueue& queue, const std::string& job_id) {
+  WatchReactor(JobQueue& queue, const v1::JobRef& ref) {
     pump_ = std::make_shared<EventPump>(
-        queue, job_id, [this](const v1::JobEvent* e) { StartWrite(e); },
-        [this](const grpc::Status& st) { Finish(st); });
+        queue, ref.job_id(), [this](const v1::JobEvent* e) { StartWrite(e); },
+        [this](const grpc::Status& st) { Finish(st); }, ref.from_sequence());
     pump_->start();
   }
   void OnWriteDone(bool ok) override { pump_->on_write_done(ok); }
@@ -322,7 +332,7 @@ grpc::ServerReadReactor<v1::RemeshRequest>* RemeshServiceImpl::Submit(grpc::Call
 
 grpc::ServerWriteReactor<v1::JobEvent>* RemeshServiceImpl::Watch(grpc::CallbackServerContext*,
                                                                  const v1::JobRef* request) {
-  return new WatchReactor(queue_, request->job_id());
+  return new WatchReactor(queue_, *request);
 }
 
 grpc::ServerUnaryReactor* RemeshServiceImpl::GetJob(grpc::CallbackServerContext* context, const v1::JobRef* request,

@@ -1,15 +1,25 @@
 #include "server/server_options.h"
 
+#include "server/redis_client.h"
+
 #include <memory>
 
 namespace vpr::service {
 
 void add_server_options(CLI::App& app, ServerOptions* o) {
   app.add_option("--listen", o->listen, "gRPC address HOST:PORT (port 0 picks a free one)")->capture_default_str();
+  app.add_option("--queue", o->queue,
+                 "Job queue: embedded (in this process) or redis://[:PASSWORD@]HOST:PORT[/DB] (Redis Streams, "
+                 "shared by server replicas and vpremesh-worker processes)")
+      ->capture_default_str();
   app.add_option("--workers", o->workers,
-                 "Worker threads running the pipeline; 0: one per GPU, or 1 on CPU (the pipeline itself "
-                 "uses every core through TBB)")
-      ->check(CLI::Range(0, 256))
+                 "Worker threads running the pipeline in this process; default: one per GPU, or 1 on CPU (the "
+                 "pipeline itself uses every core through TBB); 0 with --queue redis://, where vpremesh-worker "
+                 "runs the jobs")
+      ->check(CLI::Range(0, 256));
+  app.add_option("--upload-ttl", o->upload_ttl_s,
+                 "With --queue redis://: seconds an upload waits in Redis for a worker before the job fails")
+      ->check(CLI::Range(1.0, 30 * 86400.0))
       ->capture_default_str();
   app.add_option("--device", o->device, "Where stages run: auto (GPU when present), cpu or cuda")
       ->check(CLI::IsMember({"auto", "cpu", "cuda"}))
@@ -70,8 +80,16 @@ Status check_address(const std::string& flag, const std::string& address) {
 
 }  // namespace
 
+bool uses_redis(const ServerOptions& o) {
+  return o.queue != "embedded";
+}
+
 Status check_server_options(const ServerOptions& o) {
   VPR_RETURN_IF_ERROR(check_address("--listen", o.listen));
+  if (uses_redis(o)) {
+    auto endpoint = parse_redis_url(o.queue);
+    if (!endpoint.ok()) return invalid_argument("--queue: " + endpoint.status().message());
+  }
   if (!o.metrics_listen.empty()) VPR_RETURN_IF_ERROR(check_address("--metrics-listen", o.metrics_listen));
   if (o.limits.max_target_vertices < kMinTargetVertices || o.limits.max_target_vertices > kMaxTargetVertices)
     return invalid_argument("--max-target-vertices must be in [" + std::to_string(kMinTargetVertices) + ", " +

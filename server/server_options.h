@@ -10,7 +10,9 @@ namespace vpr::service {
 
 struct ServerOptions {
   std::string listen = "0.0.0.0:50051";  // --listen; PORT 0 picks a free port (printed at startup)
-  int workers = 0;                       // --workers; 0: one per GPU, or 1 on a CPU-only machine
+  std::string queue = "embedded";        // --queue embedded | redis://[:PASSWORD@]HOST:PORT[/DB]
+  int workers = -1;                      // --workers; -1: one per GPU, or 1 on CPU; 0 with a Redis queue
+  double upload_ttl_s = 86400;           // --upload-ttl: Redis queue only, how long an upload waits
   std::string device = "auto";           // --device auto|cpu|cuda
   std::string renderer = "auto";         // --renderer auto|egl|osmesa
   std::string metrics_listen;            // --metrics-listen HOST:PORT; empty: no metrics endpoint
@@ -24,6 +26,8 @@ struct ServerOptions {
 // Registers every flag on `app`, writing into *options. The limit flags take
 // MiB and counts; their defaults are ServerLimits'.
 void add_server_options(CLI::App& app, ServerOptions* options);
+
+bool uses_redis(const ServerOptions& options);
 
 // Cross-field checks after parsing (e.g. --max-target-vertices within the
 // pipeline's range); INVALID_ARGUMENT names the flag.

@@ -51,6 +51,29 @@ inline v1::Failure to_failure(grpc::StatusCode code, const std::string& message)
   return f;
 }
 
+// The reverse of to_failure, for a failure stored by another process (the
+// Redis queue's cancel requests). Codes without a pipeline twin are INTERNAL.
+inline Status from_failure(const v1::Failure& f) {
+  switch (grpc::StatusCode(f.code())) {
+    case grpc::StatusCode::OK:
+      return Status::Ok();
+    case grpc::StatusCode::INVALID_ARGUMENT:
+      return Status(StatusCode::kInvalidArgument, f.message());
+    case grpc::StatusCode::NOT_FOUND:
+      return Status(StatusCode::kNotFound, f.message());
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      return Status(StatusCode::kResourceExhausted, f.message());
+    case grpc::StatusCode::UNAVAILABLE:
+      return Status(StatusCode::kUnavailable, f.message());
+    case grpc::StatusCode::CANCELLED:
+      return Status(StatusCode::kCancelled, f.message());
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+      return Status(StatusCode::kDeadlineExceeded, f.message());
+    default:
+      return Status(StatusCode::kInternal, f.message());
+  }
+}
+
 inline grpc::Status to_grpc(const v1::Failure& f) {
   return grpc::Status(grpc::StatusCode(f.code()), f.message());
 }

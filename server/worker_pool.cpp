@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <atomic>
 #include <cctype>
 #include <filesystem>
@@ -128,6 +129,11 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
     e.mutable_started()->set_device(ctx.device);
     e.mutable_started()->set_queue_ms(job.queue_ms);
     queue.publish(id, std::move(e));
+  }
+  if (!ctx.crash_on_label.empty() && job.spec.label() == ctx.crash_on_label) {
+    spdlog::critical("job {}: label '{}' matches VPREMESH_FAULT_CRASH_ON_LABEL: aborting (fault injection)", id,
+                     job.spec.label());
+    std::abort();
   }
   auto stopped = [&]() { return queue.cancellation(id).has_value(); };
 
@@ -272,8 +278,11 @@ void WorkerPool::worker_main(int index) {
   ctx.device_policy = options_.device;
   ctx.limits = options_.limits;
   ctx.metrics = metrics_;
-  if (options_.device != DevicePolicy::kCpu && options_.cuda_devices > 0) {
-    ctx.cuda_device = index % options_.cuda_devices;
+  ctx.crash_on_label = options_.crash_on_label;
+  std::vector<int> ids = options_.gpu_ids;
+  for (int g = 0; ids.empty() && g < options_.cuda_devices; ++g) ids.push_back(g);
+  if (options_.device != DevicePolicy::kCpu && !ids.empty()) {
+    ctx.cuda_device = ids[size_t(index) % ids.size()];
     ctx.device = "cuda:" + std::to_string(ctx.cuda_device);
 #ifdef VPR_HAVE_CUDA
     std::string why;
@@ -281,7 +290,8 @@ void WorkerPool::worker_main(int index) {
     if (size_t(ctx.cuda_device) < gpus.size()) {
       ctx.device += " " + gpus[size_t(ctx.cuda_device)].name;
       // Workers sharing this GPU split its memory unless a budget was given.
-      const int sharing = (options_.workers + options_.cuda_devices - 1 - ctx.cuda_device) / options_.cuda_devices;
+      int sharing = 0;
+      for (int w = 0; w < options_.workers; ++w) sharing += ids[size_t(w) % ids.size()] == ctx.cuda_device;
       ctx.gpu_job_bytes = options_.gpu_job_bytes > 0
                               ? options_.gpu_job_bytes
                               : gpus[size_t(ctx.cuda_device)].total_memory / size_t(std::max(sharing, 1));

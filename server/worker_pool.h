@@ -34,6 +34,7 @@ struct WorkerContext {
   size_t gpu_job_bytes = 0;
   ServerLimits limits;
   ServiceMetrics* metrics = nullptr;  // may be null
+  std::string crash_on_label;         // fault injection for tests (WorkerPoolOptions)
 };
 
 // Runs one claimed job to its end: started, then decode, the pipeline with a
@@ -47,8 +48,15 @@ struct WorkerPoolOptions {
   DevicePolicy device = DevicePolicy::kAuto;
   RendererKind renderer = RendererKind::kAuto;
   int cuda_devices = 0;  // GPUs to spread workers over (0: none)
+  // Which CUDA devices, by index (vpremesh-worker --gpus); empty: 0 .. cuda_devices-1.
+  // Worker i runs on gpu_ids[i % size].
+  std::vector<int> gpu_ids;
   size_t gpu_job_bytes = 0;  // per-job device memory budget (0: device memory / workers sharing it)
   ServerLimits limits;
+  // Test-only fault injection (vpremesh-worker, env VPREMESH_FAULT_CRASH_ON_LABEL):
+  // abort() right after publishing `started` for a job with this label, as a
+  // worker that crashes on some input would.
+  std::string crash_on_label;
 };
 
 class WorkerPool {
