@@ -38,6 +38,7 @@
 #include "job_events.h"
 #include "load_stats.h"
 #include "server/job_spec.h"
+#include "server_list.h"
 #include "upload.h"
 #include "vpremesh/v1/remesh.grpc.pb.h"
 

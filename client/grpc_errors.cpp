@@ -7,14 +7,6 @@
 namespace vpr::cli {
 namespace {
 
-// Messages from the server or the transport may span lines; the CLI prints one.
-std::string one_line(std::string s) {
-  for (char& c : s)
-    if (c == '\n' || c == '\r') c = ' ';
-  while (!s.empty() && s.back() == ' ') s.pop_back();
-  return s;
-}
-
 bool is_transport_failure(const grpc::Status& status) {
   if (status.error_code() != grpc::StatusCode::UNAVAILABLE) return false;
   const std::string& m = status.error_message();
@@ -25,6 +17,13 @@ bool is_transport_failure(const grpc::Status& status) {
 }
 
 }  // namespace
+
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
 
 std::string grpc_code_name(grpc::StatusCode code) {
   switch (code) {

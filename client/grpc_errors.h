@@ -11,6 +11,9 @@
 
 namespace vpr::cli {
 
+// Messages from the server or the transport may span lines; the CLI prints one.
+std::string one_line(std::string s);
+
 // "RESOURCE_EXHAUSTED", "UNAVAILABLE", ...; "CODE_<n>" for a value outside the enum.
 std::string grpc_code_name(grpc::StatusCode code);
 

@@ -1,5 +1,7 @@
 // `vpremesh status JOB`, `vpremesh watch JOB -o OUTPUT` and `vpremesh cancel
 // JOB`: jobs on a vpremesh-server, typically queued with `submit --no-wait`.
+// With several --server replicas, status and cancel ask the next one when a
+// replica is UNAVAILABLE, and watch re-attaches (job_follower.h).
 #include <google/protobuf/util/json_util.h>
 
 #include <cstdio>
@@ -11,6 +13,9 @@
 #include "grpc_errors.h"
 #include "io/mesh_io.h"
 #include "job_events.h"
+#include "job_follower.h"
+#include "replicas.h"
+#include "server_list.h"
 #include "vpremesh/v1/remesh.grpc.pb.h"
 
 namespace vpr::cli {
@@ -20,9 +25,9 @@ namespace v1 = vpremesh::v1;
 namespace {
 
 struct JobArgs {
-  std::string job_id, server, output, field_out;
+  std::string job_id, output, field_out;
+  ServerFlags server;
   bool json = false;
-  double deadline_s = 0;
 };
 
 const char* state_name(v1::JobState s) {
@@ -94,16 +99,23 @@ int print_status(const v1::JobStatus& s, bool json) {
 // GetJob and CancelJob: the same unary call shape, JobRef in, JobStatus out.
 using UnaryJobCall = grpc::Status (v1::RemeshService::Stub::*)(grpc::ClientContext*, const v1::JobRef&, v1::JobStatus*);
 
+// GetJob and CancelJob answer the same on every replica (the queue is
+// shared), and asking again is harmless: UNAVAILABLE moves on to the next.
 int run_unary(const JobArgs& a, UnaryJobCall method) {
-  auto stub = v1::RemeshService::NewStub(make_channel(a.server));
-  grpc::ClientContext context;
-  set_deadline(context, a.deadline_s);
+  Replicas replicas(a.server.servers(), a.server.deadline_s);
   v1::JobRef ref;
   ref.set_job_id(a.job_id);
-  v1::JobStatus status;
-  const grpc::Status call = ((*stub).*method)(&context, ref, &status);
-  if (!call.ok()) return report_call_error(call, a.server);
-  return print_status(status, a.json);
+  for (size_t i = 0;; ++i) {
+    grpc::ClientContext context;
+    replicas.set_deadline(context);
+    v1::JobStatus status;
+    const grpc::Status call = (replicas.stub(i).*method)(&context, ref, &status);
+    if (call.ok()) return print_status(status, a.json);
+    if (call.error_code() != grpc::StatusCode::UNAVAILABLE || i + 1 == replicas.size())
+      return report_call_error(call, replicas.address(i));
+    std::fprintf(stderr, "vpremesh: no answer from %s (%s); trying %s\n", replicas.address(i).c_str(),
+                 one_line(call.error_message()).c_str(), replicas.address(i + 1).c_str());
+  }
 }
 
 int run_status(const JobArgs& a) {
@@ -121,32 +133,25 @@ int run_watch(const JobArgs& a) {
         std::fprintf(stderr, "vpremesh: error: %s\n", f.status().to_string().c_str());
         return exit_code_for(f.status());
       }
-  auto stub = v1::RemeshService::NewStub(make_channel(a.server));
-  grpc::ClientContext context;
-  set_deadline(context, a.deadline_s);
-  v1::JobRef ref;
-  ref.set_job_id(a.job_id);
-  auto reader = stub->Watch(&context, ref);
+  Replicas replicas(a.server.servers(), a.server.deadline_s);
   ProgressLine progress(stderr, !a.json);
   JobOutcome outcome;
-  const Status problem = follow_events([&reader](v1::JobEvent* e) { return reader->Read(e); }, progress, &outcome);
-  const grpc::Status call = reader->Finish();
-  if (!call.ok() && outcome.end == JobOutcome::End::kNone) return report_call_error(call, a.server);
-  if (!problem.ok()) {
-    std::fprintf(stderr, "vpremesh: error: %s\n", problem.to_string().c_str());
-    return exit_code_for(problem);
-  }
+  outcome.job_id = a.job_id;
+  ReattachOptions reattach;
+  reattach.timeout_s = a.server.reattach_timeout_s;
+  JobFollower follower(replicas, reattach, progress, &outcome);
+  const FollowEnd end = follower.watch(0);
   JobOutputs outputs;
   outputs.output = a.output;
   outputs.field_out = a.field_out;
   outputs.json = a.json;
-  return finish_job(outcome, outputs, a.server);
+  return finish_followed(end, outcome, outputs);
 }
 
 CLI::App* add_job_subcommand(CLI::App& app, const char* name, const char* help, JobArgs& args) {
   CLI::App* cmd = app.add_subcommand(name, help);
   cmd->add_option("job", args.job_id, "Job id (printed by submit --no-wait)")->required();
-  add_server_flags(cmd, args.server, args.deadline_s);
+  add_server_list_flags(cmd, args.server);
   cmd->add_flag("--json", args.json, "Print JSON");
   return cmd;
 }
@@ -162,6 +167,7 @@ Command add_status_command(CLI::App& app) {
 Command add_watch_command(CLI::App& app) {
   auto args = std::make_shared<JobArgs>();
   CLI::App* cmd = add_job_subcommand(app, "watch", "Follow a job to its end and write its result", *args);
+  add_reattach_flag(cmd, args->server);
   cmd->add_option("-o,--output", args->output, "Output mesh (.drc .ply .obj)");
   cmd->add_option("--field-out", args->field_out,
                   "Write the RESULT colored by its saliency field (watch does not have the input mesh; "

@@ -100,22 +100,6 @@ Status JobOutcome::add(const v1::JobEvent& e) {
   return {};
 }
 
-Status follow_events(const std::function<bool(v1::JobEvent*)>& read, ProgressLine& progress, JobOutcome* outcome) {
-  v1::JobEvent event;
-  int stages = 0;
-  Status problem;
-  while (read(&event)) {
-    if (!problem.ok()) continue;  // drain the stream so that Finish() can report its status
-    if (event.event_case() == v1::JobEvent::kStage) ++stages;
-    // A line per result chunk would flood a log; on a terminal it is a counter.
-    if (event.event_case() != v1::JobEvent::kResult || progress.terminal())
-      progress.update(ProgressLine::describe(event, stages));
-    problem = outcome->add(event);
-  }
-  progress.finish();
-  return problem;
-}
-
 int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& server) {
   switch (o.end) {
     case JobOutcome::End::kFailed:
@@ -217,6 +201,11 @@ std::shared_ptr<grpc::Channel> make_channel(const std::string& server) {
   // Chunks are at most 1 MiB of payload; leave room for the envelope.
   args.SetMaxReceiveMessageSize(8 << 20);
   args.SetMaxSendMessageSize(8 << 20);
+  // gRPC's default reconnect backoff grows to 120 s: a single replica that
+  // restarts would stay unreachable long after it is back, while
+  // --reattach-timeout waits for it.
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 2000);
   return grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args);
 }
 

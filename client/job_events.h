@@ -1,18 +1,15 @@
-// Following a job's event stream (from Remesh or Watch) and turning its end
-// into files, the stage table and an exit code; shared by `vpremesh submit`
-// and `vpremesh watch`.
+// A job's events (from Remesh or Watch) put together, and the job's end
+// turned into files, the stage table and an exit code; shared by `vpremesh
+// submit` and `vpremesh watch` (job_follower.h reads the streams).
 #pragma once
 
 #include <grpcpp/grpcpp.h>
 
-#include <CLI/CLI.hpp>
 #include <cstdint>
-#include <functional>
 #include <string>
 #include <vector>
 
 #include "pipeline/pipeline.h"
-#include "progress.h"
 #include "vpremesh/v1/remesh.pb.h"
 
 namespace vpr::cli {
@@ -38,12 +35,6 @@ struct JobOutcome {
   Status add(const vpremesh::v1::JobEvent& event);
 };
 
-// Reads events with `read` (ClientReader::Read or ClientReaderWriter::Read)
-// until the stream ends, showing each on `progress`. Returns the problem when
-// an event is malformed; the stream's own status comes from its Finish().
-Status follow_events(const std::function<bool(vpremesh::v1::JobEvent*)>& read, ProgressLine& progress,
-                     JobOutcome* outcome);
-
 // Where a finished job's payloads go; empty paths are skipped.
 struct JobOutputs {
   std::string output;  // .drc (the server's bytes as they are), .ply or .obj
@@ -64,14 +55,11 @@ struct JobOutputs {
 int finish_job(const JobOutcome& outcome, const JobOutputs& outputs, const std::string& server);
 
 // A channel to `server` (host:port, insecure: the service runs inside a
-// trusted network) whose messages may be as large as our chunks need.
+// trusted network) whose messages may be as large as our chunks need, and
+// which reconnects within 2 s of a restarted server coming back.
 std::shared_ptr<grpc::Channel> make_channel(const std::string& server);
 
 // Sets the call's deadline `seconds` from now (0 or less: none).
 void set_deadline(grpc::ClientContext& context, double seconds);
-
-// --server (or $VPREMESH_SERVER) and --deadline, for every service command
-// (defined in submit_command.cpp).
-void add_server_flags(CLI::App* cmd, std::string& server, double& deadline_s);
 
 }  // namespace vpr::cli

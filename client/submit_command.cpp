@@ -3,6 +3,9 @@
 // converted to Draco (the wire format), uploaded in chunks of at most 1 MiB
 // (RemeshRequest: the spec first, then mesh_chunk), and followed to its end on
 // the same stream; `--no-wait` only queues it (Submit) and prints the job id.
+// With several --server replicas the upload goes to the first that accepts a
+// connection, and a stream lost after the job id came is picked up with Watch
+// on the next replica (job_follower.h); an upload is never sent twice.
 #include <array>
 #include <chrono>
 #include <cstdio>
@@ -18,8 +21,11 @@
 #include "grpc_errors.h"
 #include "io/mesh_io.h"
 #include "job_events.h"
+#include "job_follower.h"
 #include "pipeline_flags.h"
+#include "replicas.h"
 #include "server/job_spec.h"
+#include "server_list.h"
 #include "upload.h"
 #include "vpremesh/v1/remesh.grpc.pb.h"
 
@@ -30,13 +36,13 @@ namespace v1 = vpremesh::v1;
 namespace {
 
 struct SubmitArgs {
-  std::string input, output, field_out, server, label, device = "any";
+  std::string input, output, field_out, label, device = "any";
+  ServerFlags server;
   bool json = false, no_wait = false;
   PipelineFlagValues flags;
   int quantization_bits = 0;         // upload: 0 = lossless
   int result_quantization_bits = 0;  // 0 = 14 bits, the same file as `vpremesh local -o out.drc`
   int priority = 0;
-  double deadline_s = 0;
   PipelineOptions options;
 };
 
@@ -103,36 +109,38 @@ int run_submit(SubmitArgs& a) {
   if (!spec.ok()) return fail(spec.status());
   outputs.read_ms = ms_since(start);
 
-  auto stub = v1::RemeshService::NewStub(make_channel(a.server));
+  Replicas replicas(a.server.servers(), a.server.deadline_s);
+  const size_t target = replicas.first_reachable();
+  const std::string& server = replicas.address(target);
   grpc::ClientContext context;
-  set_deadline(context, a.deadline_s);
+  replicas.set_deadline(context);
 
   if (a.no_wait) {
     v1::JobRef ref;
-    auto writer = stub->Submit(&context, &ref);
+    auto writer = replicas.stub(target).Submit(&context, &ref);
     upload(*writer, *spec, *bytes);
     const grpc::Status status = writer->Finish();
-    if (!status.ok()) return report_call_error(status, a.server);
+    if (!status.ok()) return report_call_error(status, server);
     if (a.json)
-      std::printf("%s\n", nlohmann::json{{"job_id", ref.job_id()}, {"server", a.server}}.dump(2).c_str());
+      std::printf("%s\n", nlohmann::json{{"job_id", ref.job_id()}, {"server", server}}.dump(2).c_str());
     else
       std::printf("%s\n", ref.job_id().c_str());
     return kExitOk;
   }
 
   start = std::chrono::steady_clock::now();
-  auto stream = stub->Remesh(&context);
+  auto stream = replicas.stub(target).Remesh(&context);
   const bool sent = upload(*stream, *spec, *bytes);
   if (sent) outputs.upload_ms = ms_since(start);
   ProgressLine progress(stderr, !a.json);
   JobOutcome outcome;
-  const Status problem = follow_events([&stream](v1::JobEvent* e) { return stream->Read(e); }, progress, &outcome);
-  const grpc::Status status = stream->Finish();
-  // A job that failed says so in its last event; the call's status may carry
-  // the same code. A failed call without such an event is the call's error.
-  if (!status.ok() && outcome.end == JobOutcome::End::kNone) return report_call_error(status, a.server);
-  if (!problem.ok()) return fail(problem);
-  return finish_job(outcome, outputs, a.server);
+  ReattachOptions reattach;
+  reattach.timeout_s = a.server.reattach_timeout_s;
+  reattach.cancel_at_deadline = true;
+  JobFollower follower(replicas, reattach, progress, &outcome);
+  const FollowEnd end = follower.follow(
+      {[&stream](v1::JobEvent* e) { return stream->Read(e); }, [&stream] { return stream->Finish(); }}, target);
+  return finish_followed(end, outcome, outputs);
 }
 
 }  // namespace
@@ -159,21 +167,13 @@ StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantiz
   return bytes;
 }
 
-void add_server_flags(CLI::App* cmd, std::string& server, double& deadline_s) {
-  cmd->add_option("--server", server, "Server address host:port (or $VPREMESH_SERVER)")
-      ->envname("VPREMESH_SERVER")
-      ->required();
-  cmd->add_option("--deadline", deadline_s, "Give up after this many seconds (0 = never)")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-}
-
 Command add_submit_command(CLI::App& app) {
   auto args = std::make_shared<SubmitArgs>();
   CLI::App* cmd = app.add_subcommand("submit", "Remesh a file on a vpremesh-server");
   cmd->add_option("input", args->input, "Input mesh (.drc .obj .ply .off .stl)")->required();
   cmd->add_option("-o,--output", args->output, "Output mesh (.drc .ply .obj)");
-  add_server_flags(cmd, args->server, args->deadline_s);
+  add_server_list_flags(cmd, args->server);
+  add_reattach_flag(cmd, args->server);
   add_pipeline_flags(cmd, args->options, args->flags);
   cmd->add_option("--field-out", args->field_out,
                   "Write the input mesh colored by its saliency field, as local --field-out (.ply .drc .obj)");

@@ -10,7 +10,8 @@ packages=(
   libosmesa6-dev libegl-dev libegl1-mesa-dev libegl-mesa0 libgl1-mesa-dri libgl-dev
   libpng-dev nlohmann-json3-dev libcli11-dev libmeshoptimizer-dev
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc libcivetweb-dev
-  python3-grpcio python3-protobuf
+  python3-grpcio python3-protobuf python3-yaml
+  redis-server libhiredis-dev
 )
 
 missing=()

@@ -192,6 +192,12 @@ int run(const ServerOptions& o) {
   spdlog::info("{}: draining (grace {} s)", signal_number == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_grace_s);
   draining = true;
   set_serving(false);
+  if (redis) {
+    // The jobs belong to the shared queue, not to this replica: hand the
+    // clients over to the other replicas at once and leave the jobs running.
+    service.end_streams(unavailable(
+        "this vpremesh-server replica is shutting down; the job goes on: re-attach with Watch on another replica"));
+  }
   const size_t failed = queue->drain(unavailable(
       "the server is shutting down: the job was still waiting in the queue and did not run; submit it again"));
   if (failed) spdlog::info("{} waiting job(s) failed with UNAVAILABLE", failed);

@@ -213,6 +213,9 @@ class RemeshReactor final : public grpc::ServerBidiReactor<v1::RemeshRequest, v1
       pump_ = pump;
       cancelled = cancelled_;
     }
+    stream_id_ = service_.add_stream([weak = std::weak_ptr<EventPump>(pump)](const grpc::Status& st) {
+      if (auto p = weak.lock()) p->stop(st);
+    });
     if (cancelled) cancel_job();
     pump->start();
   }
@@ -231,6 +234,7 @@ class RemeshReactor final : public grpc::ServerBidiReactor<v1::RemeshRequest, v1
   }
 
   void OnDone() override {
+    if (stream_id_) service_.remove_stream(stream_id_);
     if (auto pump = get_pump()) pump->detach();
     delete this;
   }
@@ -244,6 +248,9 @@ class RemeshReactor final : public grpc::ServerBidiReactor<v1::RemeshRequest, v1
   // Cancels the job (a running one stops at its next stage boundary) and
   // ends the stream: the client is gone or its deadline passed.
   void cancel_job() {
+    // A replica leaving a shared queue ends its streams; the jobs go on and
+    // their clients re-attach elsewhere.
+    if (service_.ending_streams()) return;
     const Status why = cancel_reason(context_, "Remesh");
     (void)service_.queue().cancel(job_id_, why);
     if (auto pump = get_pump()) pump->stop(to_grpc(why));
@@ -262,6 +269,7 @@ class RemeshReactor final : public grpc::ServerBidiReactor<v1::RemeshRequest, v1
   std::string job_id_;
   std::shared_ptr<EventPump> pump_;
   bool cancelled_ = false;
+  uint64_t stream_id_ = 0;
 };
 
 class SubmitReactor final : public grpc::ServerReadReactor<v1::RemeshRequest> {
@@ -300,25 +308,54 @@ class SubmitReactor final : public grpc::ServerReadReactor<v1::RemeshRequest> {
 
 class WatchReactor final : public grpc::ServerWriteReactor<v1::JobEvent> {
  public:
-  WatchReactor(JobQueue& queue, const v1::JobRef& ref) {
+  WatchReactor(RemeshServiceImpl& service, const v1::JobRef& ref) : service_(service) {
     pump_ = std::make_shared<EventPump>(
-        queue, ref.job_id(), [this](const v1::JobEvent* e) { StartWrite(e); },
+        service.queue(), ref.job_id(), [this](const v1::JobEvent* e) { StartWrite(e); },
         [this](const grpc::Status& st) { Finish(st); }, ref.from_sequence());
+    stream_id_ = service.add_stream([weak = std::weak_ptr<EventPump>(pump_)](const grpc::Status& st) {
+      if (auto p = weak.lock()) p->stop(st);
+    });
     pump_->start();
   }
   void OnWriteDone(bool ok) override { pump_->on_write_done(ok); }
   // Watching stops; the job goes on.
   void OnCancel() override { pump_->stop({grpc::StatusCode::CANCELLED, "the client stopped watching"}); }
   void OnDone() override {
+    service_.remove_stream(stream_id_);
     pump_->detach();
     delete this;
   }
 
  private:
+  RemeshServiceImpl& service_;
   std::shared_ptr<EventPump> pump_;
+  uint64_t stream_id_ = 0;
 };
 
 }  // namespace
+
+uint64_t RemeshServiceImpl::add_stream(StreamStopper stop) {
+  std::lock_guard<std::mutex> lock(streams_mu_);
+  const uint64_t id = next_stream_++;
+  streams_.emplace(id, std::move(stop));
+  return id;
+}
+
+void RemeshServiceImpl::remove_stream(uint64_t id) {
+  std::lock_guard<std::mutex> lock(streams_mu_);
+  streams_.erase(id);
+}
+
+void RemeshServiceImpl::end_streams(const Status& why) {
+  ending_streams_ = true;
+  std::vector<StreamStopper> stops;
+  {
+    std::lock_guard<std::mutex> lock(streams_mu_);
+    for (auto& [id, stop] : streams_) stops.push_back(stop);
+  }
+  for (const StreamStopper& stop : stops) stop(to_grpc(why));
+  if (!stops.empty()) spdlog::info("ended {} stream(s): {}", stops.size(), why.message());
+}
 
 grpc::ServerBidiReactor<v1::RemeshRequest, v1::JobEvent>* RemeshServiceImpl::Remesh(
     grpc::CallbackServerContext* context) {
@@ -332,7 +369,7 @@ grpc::ServerReadReactor<v1::RemeshRequest>* RemeshServiceImpl::Submit(grpc::Call
 
 grpc::ServerWriteReactor<v1::JobEvent>* RemeshServiceImpl::Watch(grpc::CallbackServerContext*,
                                                                  const v1::JobRef* request) {
-  return new WatchReactor(queue_, *request);
+  return new WatchReactor(*this, *request);
 }
 
 grpc::ServerUnaryReactor* RemeshServiceImpl::GetJob(grpc::CallbackServerContext* context, const v1::JobRef* request,

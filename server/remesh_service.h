@@ -3,7 +3,10 @@
 // mesh itself is decoded by the worker.
 #pragma once
 
+#include <atomic>
 #include <functional>
+#include <map>
+#include <mutex>
 
 #include "server/job_queue.h"
 #include "server/limits.h"
@@ -39,10 +42,26 @@ class RemeshServiceImpl final : public v1::RemeshService::CallbackService {
   const ServiceConfig& config() const { return config_; }
   ServiceMetrics* metrics() { return metrics_; }
 
+  // A replica leaving a shared (Redis) queue: ends every Remesh and Watch
+  // stream now with `why` (UNAVAILABLE, so clients re-attach elsewhere) and
+  // leaves their jobs running; from now on a cancelled stream no longer
+  // cancels its job either.
+  void end_streams(const Status& why);
+
+  // Streams register their stop function while they follow a job.
+  using StreamStopper = std::function<void(const grpc::Status&)>;
+  uint64_t add_stream(StreamStopper stop);
+  void remove_stream(uint64_t id);
+  bool ending_streams() const { return ending_streams_; }
+
  private:
   JobQueue& queue_;
   ServiceConfig config_;
   ServiceMetrics* metrics_;
+  std::mutex streams_mu_;
+  std::map<uint64_t, StreamStopper> streams_;
+  uint64_t next_stream_ = 1;
+  std::atomic<bool> ending_streams_{false};
 };
 
 }  // namespace vpr::service
