@@ -140,14 +140,25 @@ int run(const ServerOptions& o) {
   builder.RegisterService(&service);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) return fail("cannot listen on " + o.listen + " (--listen): address in use or invalid", 2);
+  // Both "" (the process) and the service. With a shared queue, a Redis
+  // outage turns only the service NOT_SERVING (readiness: no new jobs here)
+  // while "" stays SERVING (liveness: restarting would not bring Redis back).
   auto set_serving = [&](bool serving) {
     server->GetHealthCheckService()->SetServingStatus(serving);
+    server->GetHealthCheckService()->SetServingStatus(kServiceName, serving);
+  };
+  auto set_queue_serving = [&](bool serving) {
     server->GetHealthCheckService()->SetServingStatus(kServiceName, serving);
   };
   // Serving while some worker can run jobs (embedded) or Redis answers.
   Status queue_health = queue->health();
   if (!queue_health.ok()) spdlog::error("{}; serving NOT_SERVING until it answers", queue_health.message());
-  set_serving(redis ? queue_health.ok() : live > 0);
+  if (redis) {
+    set_serving(true);
+    set_queue_serving(queue_health.ok());
+  } else {
+    set_serving(live > 0);
+  }
 
   // The parseable line tests and scripts wait for.
   std::printf("vpremesh-server listening on %s:%d\n", host_of(o.listen).c_str(), port);
@@ -183,7 +194,7 @@ int run(const ServerOptions& o) {
           spdlog::info("the job queue answers again: SERVING");
         else
           spdlog::error("{}: NOT_SERVING", h.message());
-        set_serving(h.ok());
+        set_queue_serving(h.ok());
       }
       queue_health = h;
     }

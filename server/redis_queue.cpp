@@ -69,6 +69,19 @@ RedisQueue::RedisQueue(RedisQueueOptions options)
 
 RedisQueue::~RedisQueue() {
   close();
+  // A worker leaving cleanly removes its consumers from the group, so the
+  // group lists live workers only. Not while it holds a job: deleting a
+  // consumer drops its pending entries, which must stay to be reclaimed.
+  {
+    std::lock_guard<std::mutex> lock(held_mu_);
+    bool reachable = held_.empty();
+    for (const std::string& consumer : consumers_)
+      for (const std::string& stream : streams_)
+        if (reachable) {
+          auto r = client_.command({"XGROUP", "DELCONSUMER", stream, kGroup, consumer});
+          reachable = r.ok() || r.status().code() != StatusCode::kUnavailable;
+        }
+  }
   {
     std::lock_guard<std::mutex> lock(stop_mu_);
     stopping_ = true;
@@ -368,6 +381,10 @@ void RedisQueue::wait_for_work() {
 std::optional<ClaimedJob> RedisQueue::claim(const std::string& worker) {
   const std::string visibility = std::to_string(options_.visibility_timeout.count());
   const std::string max_deliveries = std::to_string(options_.max_deliveries);
+  {
+    std::lock_guard<std::mutex> lock(held_mu_);
+    consumers_.insert(worker);
+  }
   int attempt = 0;
   while (!closed_) {
     auto r = run(lua::kClaim, streams_, {kGroup, worker, visibility, max_deliveries, options_.prefix, worker});

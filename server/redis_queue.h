@@ -16,6 +16,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "server/job_queue.h"
@@ -105,6 +106,7 @@ class RedisQueue final : public JobQueue {
 
   std::mutex held_mu_;
   std::map<std::string, Held> held_;
+  std::set<std::string> consumers_;  // names this process claimed with
 
   std::mutex watch_mu_;
   std::condition_variable watch_cv_;

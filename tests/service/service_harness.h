@@ -3,27 +3,24 @@
 // process, and uploads through the C++ stubs.
 #pragma once
 
-#include <fcntl.h>
 #include <grpcpp/grpcpp.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "cli_runner.h"
 #include "io/mesh_io.h"
+#include "process_harness.h"
 #include "vpremesh/v1/remesh.grpc.pb.h"
 
 namespace vpr::testing {
@@ -39,107 +36,44 @@ inline constexpr std::chrono::seconds kJobLimit{300};
 // the server if it still runs, so a failing test never leaves one behind.
 class ServerProcess {
  public:
-  explicit ServerProcess(const std::vector<std::string>& flags) {
-    int fds[2];
-    if (::pipe2(fds, O_CLOEXEC) != 0) return;
-    std::vector<std::string> args = {VPR_SERVER_PATH, "--listen", "127.0.0.1:0"};
-    args.insert(args.end(), flags.begin(), flags.end());
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      ::dup2(fds[1], 1);
-      ::dup2(fds[1], 2);
-      std::vector<char*> argv;
-      for (std::string& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      ::execv(argv[0], argv.data());
-      ::_exit(127);
-    }
-    ::close(fds[1]);
-    if (pid_ < 0) {
-      ::close(fds[0]);
-      return;
-    }
-    reader_ = std::thread([this, fd = fds[0]] {
-      char buf[4096];
-      ssize_t n;
-      while ((n = ::read(fd, buf, sizeof buf)) > 0) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        log_.append(buf, size_t(n));
-        find_address();
-        changed_.notify_all();
-      }
-      ::close(fd);
-      std::lock_guard<std::mutex> lock(mutex_);
-      eof_ = true;
-      changed_.notify_all();
-    });
-    std::unique_lock<std::mutex> lock(mutex_);
-    changed_.wait_for(lock, kStartupLimit, [this] { return !address_.empty() || eof_; });
+  explicit ServerProcess(const std::vector<std::string>& flags, const std::vector<std::string>& env = {})
+      : process_(arguments(flags), env) {
+    process_.wait_for_output([](const std::string& out) { return !find_address(out).empty(); }, kStartupLimit);
+    address_ = find_address(process_.output());
   }
 
-  ~ServerProcess() {
-    if (pid_ > 0 && !exited_) {
-      ::kill(pid_, SIGKILL);
-      int status;
-      ::waitpid(pid_, &status, 0);
-    }
-    if (reader_.joinable()) reader_.join();
-  }
-  ServerProcess(const ServerProcess&) = delete;
-  ServerProcess& operator=(const ServerProcess&) = delete;
-
-  bool started() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return !address_.empty();
-  }
-  std::string address() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return address_;
-  }
+  bool started() const { return !address_.empty(); }
+  std::string address() const { return address_; }
+  pid_t pid() const { return process_.pid(); }
   // Everything the server printed so far (for failure messages).
-  std::string log() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return log_;
-  }
+  std::string log() const { return process_.output(); }
+  // Sends a signal (SIGKILL: a replica that dies); no wait.
+  void kill(int signal) { process_.kill(signal); }
+  // Waits for the exit (after a kill); the exit code, or -signal.
+  int wait() { return process_.wait(kJobLimit); }
 
   // Sends SIGTERM and waits for the exit; returns the exit code, or -signal
   // when a signal ended it (SIGKILL after the safety limit).
-  int terminate() {
-    if (pid_ <= 0 || exited_) return -1;
-    ::kill(pid_, SIGTERM);
-    int status = 0;
-    const auto give_up = std::chrono::steady_clock::now() + kJobLimit;
-    while (::waitpid(pid_, &status, WNOHANG) == 0) {
-      if (std::chrono::steady_clock::now() > give_up) {
-        ::kill(pid_, SIGKILL);
-        ::waitpid(pid_, &status, 0);
-        break;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    exited_ = true;
-    if (reader_.joinable()) reader_.join();
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
-  }
+  int terminate() { return process_.terminate(kJobLimit); }
 
  private:
-  void find_address() {
-    if (!address_.empty()) return;
+  static std::vector<std::string> arguments(const std::vector<std::string>& flags) {
+    std::vector<std::string> args = {VPR_SERVER_PATH, "--listen", "127.0.0.1:0"};
+    args.insert(args.end(), flags.begin(), flags.end());
+    return args;
+  }
+  // "" until the line is complete.
+  static std::string find_address(const std::string& log) {
     const std::string key = "listening on ";
-    const size_t at = log_.find(key);
-    if (at == std::string::npos) return;
-    const size_t end = log_.find_first_of(" \r\n", at + key.size());
-    if (end == std::string::npos) return;  // the line is not complete yet
-    address_ = log_.substr(at + key.size(), end - at - key.size());
+    const size_t at = log.find(key);
+    if (at == std::string::npos) return "";
+    const size_t end = log.find_first_of(" \r\n", at + key.size());
+    if (end == std::string::npos) return "";
+    return log.substr(at + key.size(), end - at - key.size());
   }
 
-  pid_t pid_ = -1;
-  bool exited_ = false;
-  std::thread reader_;
-  mutable std::mutex mutex_;
-  std::condition_variable changed_;
-  std::string log_, address_;
-  bool eof_ = false;
+  ChildProcess process_;
+  std::string address_;
 };
 
 using vpr::testing::CliRun;
