@@ -2,7 +2,8 @@
 # Builds the GPU bundle on this (GPU-less) machine for the device machine:
 # nvcc for sm_90, EGL only (OSMesa's LLVM is too big to carry), Release. Writes
 # .bundle/ (ignored by git, carried by the device tool):
-#   bin/     vpremesh, vpremesh-bench, vpremesh-server (stripped)
+#   bin/     vpremesh, vpremesh-bench, vpremesh-server, vpremesh-worker (stripped),
+#            and this machine's redis-server and redis-cli for the queue benchmark
 #   lib/     the non-system shared libraries they need (from ldd)
 #   build/   a pruned copy of the build tree that `ctest -L gpu` can run
 #   models/  the shared models the GPU tests and the benchmark read
@@ -16,20 +17,24 @@ MODELS=${MODELS:-"igea.ply horse.ply bunny.obj kitten.obj"}
 cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DVPR_CUDA="${CUDA:-ON}" -DVPR_OSMESA=OFF -DVPR_ALLOW_PARTIAL="${PARTIAL:-OFF}" \
   -DCMAKE_CUDA_ARCHITECTURES=90 >/dev/null
 targets=(vpremesh vpremesh-bench)
-for t in ${EXTRA_TARGETS-vpremesh-server image_saliency_gpu_test geometry_gpu_test pipeline_gpu_test job_device_test}; do
+for t in ${EXTRA_TARGETS-vpremesh-server vpremesh-worker image_saliency_gpu_test geometry_gpu_test pipeline_gpu_test job_device_test}; do
   if ninja -C "$BUILD" -t targets all 2>/dev/null | grep -q "^$t:"; then targets+=("$t"); fi
 done
 cmake --build "$BUILD" -j"$(nproc)" --target "${targets[@]}"
 
 rm -rf .bundle && mkdir -p .bundle/bin .bundle/lib .bundle/build .bundle/models
 bins=()
-for t in vpremesh vpremesh-bench vpremesh-server; do
+for t in vpremesh vpremesh-bench vpremesh-server vpremesh-worker; do
   f=$(find "$BUILD" -maxdepth 3 -type f -name "$t" -perm -u+x | head -1)
   [ -n "$f" ] && cp "$f" .bundle/bin/ && bins+=(".bundle/bin/$t")
 done
+for t in redis-server redis-cli; do
+  if command -v "$t" >/dev/null; then cp "$(command -v "$t")" .bundle/bin/ && bins+=(".bundle/bin/$t"); fi
+done
 # The ctest tree: every CTestTestfile and discovered-test list, and the test
 # executables at their paths relative to the build folder.
-(cd "$BUILD" && find . \( -name CTestTestfile.cmake -o -name '*_include.cmake' -o -name '*_tests.cmake' \) \
+(cd "$BUILD" && find . \( -name CTestTestfile.cmake -o -name '*_include.cmake' -o -name '*_tests.cmake' \
+  -o -name '*_labels.cmake' \) \
   -exec cp --parents {} ../../.bundle/build/ \;)
 for t in "${targets[@]}"; do
   case "$t" in *_test)

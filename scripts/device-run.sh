@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Runs ON the device machine (NVIDIA H100), from the repository root, with
 # .pack/ (scripts/device-bundle.sh) and .gl/ (the GL loader debs) carried:
-#   scripts/device-run.sh [tests|bench|all|suite|load] [bench arguments...]
+#   scripts/device-run.sh [tests|bench|all|suite|load|queue] [bench arguments...]
 # Writes under $OUT: device.txt, gpu-tests.log, bench.md; `load` (not part of
 # all) writes load.md: vpremesh-server with --device cuda and 1, 2, 4 workers,
-# driven by `vpremesh bench` closed and open loop (scripts/bench-load.sh).
+# driven by `vpremesh bench` closed and open loop (scripts/bench-load.sh);
+# `queue` writes queue.md: the embedded queue against Redis Streams with 1, 2
+# and 4 vpremesh-worker processes on the GPU (scripts/bench-queue.sh).
 set -uo pipefail
 mode=${1:-all}
 shift || true
@@ -57,4 +59,10 @@ if [ "$mode" = load ]; then
     MODELS="${MODELS:-.bundle/models/igea.ply:10000 .bundle/models/horse.ply:5000}" \
     bash scripts/bench-load.sh 2>"$OUT/load.err" | tee "$OUT/load.md"
   tail -5 "$OUT/load.err"
+fi
+if [ "$mode" = queue ]; then
+  PATH=$PWD/.bundle/bin:$PATH BIN=.bundle/bin DEVICE=cuda RENDERER=egl PROCS="${PROCS:-2 4}" \
+    MODEL="${MODEL:-.bundle/models/igea.ply}" TARGET=${TARGET:-10000} RESOLUTION=${RESOLUTION:-512} \
+    REQUESTS=${REQUESTS:-24} bash scripts/bench-queue.sh 2>"$OUT/queue.err" | tee "$OUT/queue.md"
+  tail -5 "$OUT/queue.err"
 fi

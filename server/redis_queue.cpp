@@ -61,7 +61,9 @@ RedisQueue::RedisQueue(RedisQueueOptions options)
       client_(options_.endpoint),
       clients_key_(options_.prefix + "clients"),
       finished_key_(options_.prefix + "finished"),
-      dead_key_(options_.prefix + "dead") {
+      dead_key_(options_.prefix + "dead"),
+      doorbell_key_(options_.prefix + "doorbell"),
+      wake_key_(options_.prefix + "wake:" + new_id()) {
   for (int p = kMaxPriority; p >= kMinPriority; --p) streams_.push_back(options_.prefix + "jobs:" + std::to_string(p));
   if (Status s = ensure_groups(); !s.ok()) spdlog::warn("{} (will retry)", s.message());
   watcher_ = std::thread([this] { watch_loop(); });
@@ -160,7 +162,8 @@ StatusOr<std::string> RedisQueue::submit(JobSubmission job) {
   const std::string max_client = std::to_string(options_.limits.max_jobs_per_client);
   const std::string queued_bytes = serialize(queued);
   const std::string prio = std::to_string(priority);
-  std::vector<std::string> keys = {key("job:", id), key("upload:", id), key("events:", id), clients_key_, stream};
+  std::vector<std::string> keys = {key("job:", id), key("upload:", id), key("events:", id), clients_key_, stream,
+                                   doorbell_key_};
   keys.insert(keys.end(), streams_.begin(), streams_.end());
   auto r = run(lua::kSubmit, keys,
                {id, spec, job.peer, job.spec.label(), prio, now,
@@ -272,6 +275,9 @@ StatusOr<uint64_t> RedisQueue::subscribe(const std::string& job_id, Listener lis
     watched_[job_id].slots.emplace(token, std::move(slot));
   }
   watch_cv_.notify_all();
+  // Wakes the watcher's blocking XREAD so it adds this job's stream now.
+  (void)client_.command({"XADD", wake_key_, "MAXLEN", "1", "*", "job", job_id});
+  (void)client_.command({"PEXPIRE", wake_key_, "600000"});
   return token;
 }
 
@@ -294,12 +300,15 @@ void RedisQueue::unsubscribe(const std::string& job_id, uint64_t token) {
 // One thread follows every watched job's event stream with one blocking
 // XREAD and wakes the job's listeners when entries arrive. Each stream is
 // read from 0-0 at first, so an event that landed between a listener's
-// subscribe and its first read still wakes it.
+// subscribe and its first read still wakes it. The XREAD also follows this
+// process's wake stream, which subscribe() writes to, so a new job's stream
+// joins the read at once.
 void RedisQueue::watch_loop() {
   int attempt = 0;
+  std::string wake_last = "0-0";
   while (!stopping_) {
-    std::vector<std::string> args = {"XREAD", "COUNT", "1000", "BLOCK", "100", "STREAMS"};
-    std::vector<std::string> ids;
+    std::vector<std::string> args = {"XREAD", "COUNT", "1000", "BLOCK", "500", "STREAMS", wake_key_};
+    std::vector<std::string> ids = {wake_last};
     {
       std::unique_lock<std::mutex> lock(watch_mu_);
       watch_cv_.wait_for(lock, std::chrono::seconds(1), [&] { return stopping_.load() || !watched_.empty(); });
@@ -323,6 +332,10 @@ void RedisQueue::watch_loop() {
       const redisReply* entries = element(stream, 1);
       if (array_size(entries) == 0) continue;
       const std::string last = as_string(element(element(entries, array_size(entries) - 1), 0));
+      if (stream_key == wake_key_) {
+        wake_last = last;
+        continue;
+      }
       const std::string job_id = stream_key.substr(key("events:", "").size());
       std::vector<std::shared_ptr<Slot>> slots;
       {
@@ -368,14 +381,11 @@ QueueStats RedisQueue::stats() {
 
 // ---------------------------------------------------------------- workers --
 
-// Waits up to half a second for a new entry in any job stream. A plain XREAD
-// (not the group's) only watches; the claim script takes the entry. Returning
-// every half second also lets the claim script reclaim abandoned jobs.
-void RedisQueue::wait_for_work() {
-  std::vector<std::string_view> args = {"XREAD", "BLOCK", "500", "STREAMS"};
-  for (const std::string& s : streams_) args.push_back(s);
-  for (size_t i = 0; i < streams_.size(); ++i) args.push_back("$");
-  (void)client_.command(args);
+// Waits up to half a second for a submission after `last_id` (the doorbell's
+// last entry when the claim script found nothing). Returning every half
+// second also lets the claim script reclaim abandoned jobs.
+void RedisQueue::wait_for_work(const std::string& last_id) {
+  (void)client_.command({"XREAD", "BLOCK", "500", "STREAMS", doorbell_key_, last_id});
 }
 
 std::optional<ClaimedJob> RedisQueue::claim(const std::string& worker) {
@@ -385,20 +395,22 @@ std::optional<ClaimedJob> RedisQueue::claim(const std::string& worker) {
     std::lock_guard<std::mutex> lock(held_mu_);
     consumers_.insert(worker);
   }
+  std::vector<std::string> claim_keys = {doorbell_key_};
+  claim_keys.insert(claim_keys.end(), streams_.begin(), streams_.end());
   int attempt = 0;
   while (!closed_) {
-    auto r = run(lua::kClaim, streams_, {kGroup, worker, visibility, max_deliveries, options_.prefix, worker});
+    auto r = run(lua::kClaim, claim_keys, {kGroup, worker, visibility, max_deliveries, options_.prefix, worker});
     if (!r.ok()) {
       backoff(r.status(), &attempt);
       continue;
     }
     if (attempt > 0) spdlog::info("{}: the job queue {} is reachable again", worker, client_.endpoint().url());
     attempt = 0;
-    if (is_nil(r->get())) {
-      wait_for_work();
+    const std::string kind = as_string(element(r->get(), 0));
+    if (kind == "none") {
+      wait_for_work(as_string(element(r->get(), 1)));
       continue;
     }
-    const std::string kind = as_string(element(r->get(), 0));
     const std::string id = as_string(element(r->get(), 1));
     const std::string token = as_string(element(r->get(), 2));
     if (kind == "dead") {

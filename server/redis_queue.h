@@ -91,7 +91,7 @@ class RedisQueue final : public JobQueue {
               const std::vector<std::string>& events, const std::string& dead_reason, const std::string& worker);
   void fail_dead(const std::string& job_id, const std::string& token, const std::string& deliveries,
                  const std::string& worker);
-  void wait_for_work();
+  void wait_for_work(const std::string& last_id);
   // Sleeps 100 ms doubling to 5 s; wakes early on close() when until_close.
   void backoff(const Status& why, int* attempt, bool until_close = true);
   void watch_loop();
@@ -101,7 +101,7 @@ class RedisQueue final : public JobQueue {
   RedisQueueOptions options_;
   RedisClient client_;
   std::vector<std::string> streams_;  // highest priority first
-  std::string clients_key_, finished_key_, dead_key_;
+  std::string clients_key_, finished_key_, dead_key_, doorbell_key_, wake_key_;
   std::atomic<bool> groups_ready_{false}, draining_{false}, closed_{false}, stopping_{false};
 
   std::mutex held_mu_;

@@ -16,6 +16,10 @@
 //   clients          hash: peer -> unfinished jobs (--max-jobs-per-client).
 //   finished         hash: state -> jobs ended so far (metrics).
 //   dead             the dead-letter stream: {job, reason, deliveries, worker}.
+//   doorbell         a short stream with an entry per submission: idle workers
+//                    block on it (XREAD) instead of polling.
+//   wake:<random>    one per server process: subscribe() writes to it to wake
+//                    the process's blocking XREAD over watched event streams.
 //
 // `token` is the job's delivery number. Every write by a worker carries the
 // token it claimed with and is refused once another worker has reclaimed the
@@ -51,14 +55,15 @@ local function close(job, events, upload, clients, finished, state, now, group, 
 end
 )lua";
 
-// KEYS: job, upload, events, clients, the job's stream, then every job stream.
+// KEYS: job, upload, events, clients, the job's stream, doorbell, then every
+//       job stream.
 // ARGV: id, spec, peer, label, priority, now_ms, upload, upload_ttl_ms,
 //       max_queue, max_jobs_per_client, queued event, result_ttl_ms, group.
 // Returns {1, waiting}, {0, waiting} (queue full), {-1, unfinished} (client
 // full) or {-2, 0} (id taken).
 inline constexpr const char* kSubmit = R"lua(
 local w = 0
-for i = 6, #KEYS do w = w + waiting(KEYS[i], ARGV[13]) end
+for i = 7, #KEYS do w = w + waiting(KEYS[i], ARGV[13]) end
 if w >= tonumber(ARGV[9]) then return {0, w} end
 local mine = tonumber(redis.call('HGET', KEYS[4], ARGV[3]) or '0')
 if mine >= tonumber(ARGV[10]) then return {-1, mine} end
@@ -69,15 +74,18 @@ redis.call('HSET', KEYS[1], 'spec', ARGV[2], 'peer', ARGV[3], 'label', ARGV[4], 
 append(KEYS[1], KEYS[3], ARGV[11])
 redis.call('HSET', KEYS[1], 'entry', redis.call('XADD', KEYS[5], '*', 'job', ARGV[1]))
 redis.call('HINCRBY', KEYS[4], ARGV[3], 1)
+redis.call('XADD', KEYS[6], 'MAXLEN', '~', 100, '*', 'job', ARGV[1])
 return {1, w}
 )lua";
 
-// KEYS: the job streams, highest priority first.
+// KEYS: doorbell, then the job streams, highest priority first.
 // ARGV: group, consumer, visibility_ms, max_deliveries, key prefix, worker.
 // Reclaims an entry idle past the visibility timeout (its worker died) before
-// reading a new one. Returns nil (nothing to do), {'job', id, token, spec,
-// submitted_ms} or {'dead', id, token, deliveries}: the caller fails the
-// latter to the dead-letter stream (the failure message is built in C++).
+// reading a new one. Returns {'none', doorbell's last id} (nothing to do: the
+// caller blocks on the doorbell from that id, so a job submitted right after
+// this script still wakes it), {'job', id, token, spec, submitted_ms} or
+// {'dead', id, token, deliveries}: the caller fails the latter to the
+// dead-letter stream (the failure message is built in C++).
 inline constexpr const char* kClaim = R"lua(
 local function take(stream, entry)
   local id = entry[2][2]
@@ -95,9 +103,13 @@ local function take(stream, entry)
   local f = redis.call('HMGET', job, 'spec', 'submitted_ms')
   return {'job', id, tostring(d), f[1], f[2]}
 end
+local function none()
+  local last = redis.call('XREVRANGE', KEYS[1], '+', '-', 'COUNT', 1)[1]
+  return {'none', last and last[1] or '0-0'}
+end
 for round = 1, 32 do
   local seen = false
-  for i = 1, #KEYS do
+  for i = 2, #KEYS do
     local r = redis.call('XAUTOCLAIM', KEYS[i], ARGV[1], ARGV[2], ARGV[3], '0-0', 'COUNT', 1)
     for _, entry in ipairs(r[2]) do
       seen = true
@@ -105,7 +117,7 @@ for round = 1, 32 do
       if t then return t end
     end
   end
-  for i = 1, #KEYS do
+  for i = 2, #KEYS do
     local r = redis.call('XREADGROUP', 'GROUP', ARGV[1], ARGV[2], 'COUNT', 1, 'STREAMS', KEYS[i], '>')
     if r then
       seen = true
@@ -113,9 +125,9 @@ for round = 1, 32 do
       if t then return t end
     end
   end
-  if not seen then return nil end
+  if not seen then return none() end
 end
-return nil
+return none()
 )lua";
 
 // KEYS: job, events. ARGV: token, stage name ('' for none), events...
