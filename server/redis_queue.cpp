@@ -63,7 +63,8 @@ RedisQueue::RedisQueue(RedisQueueOptions options)
       finished_key_(options_.prefix + "finished"),
       dead_key_(options_.prefix + "dead"),
       doorbell_key_(options_.prefix + "doorbell"),
-      wake_key_(options_.prefix + "wake:" + new_id()) {
+      wake_key_(options_.prefix + "wake:" + new_id()),
+      blobs_(options_.blobs ? options_.blobs : std::make_shared<RedisBlobStore>(client_)) {
   for (int p = kMaxPriority; p >= kMinPriority; --p) streams_.push_back(options_.prefix + "jobs:" + std::to_string(p));
   if (Status s = ensure_groups(); !s.ok()) spdlog::warn("{} (will retry)", s.message());
   watcher_ = std::thread([this] { watch_loop(); });
@@ -156,7 +157,6 @@ StatusOr<std::string> RedisQueue::submit(JobSubmission job) {
   std::string spec;
   job.spec.SerializeToString(&spec);
   const std::string now = std::to_string(unix_ms());
-  const std::string upload_ttl = std::to_string(std::max<int64_t>(1000, options_.upload_ttl.count()));
   const std::string result_ttl = std::to_string(std::max<int64_t>(1000, options_.result_ttl.count()));
   const std::string max_queue = std::to_string(options_.limits.max_queue);
   const std::string max_client = std::to_string(options_.limits.max_jobs_per_client);
@@ -165,12 +165,15 @@ StatusOr<std::string> RedisQueue::submit(JobSubmission job) {
   std::vector<std::string> keys = {key("job:", id), key("upload:", id), key("events:", id), clients_key_, stream,
                                    doorbell_key_};
   keys.insert(keys.end(), streams_.begin(), streams_.end());
+  VPR_RETURN_IF_ERROR(blobs_->put(key("upload:", id),
+                                  std::string_view(reinterpret_cast<const char*>(job.mesh.data()), job.mesh.size()),
+                                  options_.upload_ttl));
   auto r = run(lua::kSubmit, keys,
-               {id, spec, job.peer, job.spec.label(), prio, now,
-                std::string_view(reinterpret_cast<const char*>(job.mesh.data()), job.mesh.size()), upload_ttl,
-                max_queue, max_client, queued_bytes, result_ttl, kGroup});
+               {id, spec, job.peer, job.spec.label(), prio, now, max_queue, max_client, queued_bytes, result_ttl,
+                kGroup});
+  const int64_t outcome = r.ok() ? as_int(element(r->get(), 0)) : 0;
+  if (!r.ok() || outcome != 1) (void)blobs_->remove(key("upload:", id));
   if (!r.ok()) return r.status();
-  const int64_t outcome = as_int(element(r->get(), 0));
   const int64_t n = as_int(element(r->get(), 1));
   if (outcome == 0) return check_queue_length(options_.limits, size_t(n));
   if (outcome == -1) return check_client_jobs(options_.limits, job.peer, size_t(n));
@@ -196,6 +199,7 @@ StatusOr<v1::JobStatus> RedisQueue::cancel(const std::string& job_id, const Stat
   const int64_t state = as_int(r->get());
   if (state < 0) return not_found(job_id);
   if (state == v1::JOB_STATE_CANCELLED) {
+    if (options_.blobs) (void)blobs_->remove(key("upload:", job_id));
     spdlog::info("job {} cancelled while queued: {}", job_id, reason.message());
     if (options_.on_state) options_.on_state(job_id, v1::JOB_STATE_CANCELLED);
   } else if (state == v1::JOB_STATE_RUNNING) {
@@ -435,8 +439,8 @@ std::optional<ClaimedJob> RedisQueue::claim(const std::string& worker) {
       held_[id] = Held{token, worker, {}, 0, false};
     }
     start_heartbeats();
-    auto upload = client_.command({"GET", key("upload:", id)});
-    if (upload.ok() && is_nil(upload->get())) {
+    auto upload = blobs_->get(key("upload:", id));
+    if (upload.ok() && !upload->has_value()) {
       v1::JobEvent e;
       *e.mutable_failed() = to_failure(vpr::not_found(
           "the upload of job " + id + " expired before a worker took it (--upload-ttl " +
@@ -452,7 +456,7 @@ std::optional<ClaimedJob> RedisQueue::claim(const std::string& worker) {
       backoff(upload.status(), &attempt);
       continue;
     }
-    const std::string bytes = as_string(upload->get());
+    const std::string& bytes = **upload;
     job.mesh.assign(bytes.begin(), bytes.end());
     spdlog::info("job {} running on {} (delivery {}) after {:.0f} ms in the queue", id, worker, token, job.queue_ms);
     if (options_.on_state) options_.on_state(id, v1::JOB_STATE_RUNNING);
@@ -492,6 +496,7 @@ bool RedisQueue::finish(const std::string& job_id, const std::string& token, v1:
                  args);
     if (r.ok()) {
       const bool written = as_int(r->get()) == 1;
+      if (written && options_.blobs) (void)blobs_->remove(key("upload:", job_id));
       if (!written)
         spdlog::warn("job {}: {} not recorded: another worker owns the job now, or it already ended", job_id,
                      state_name(state));

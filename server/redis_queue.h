@@ -19,6 +19,7 @@
 #include <set>
 #include <thread>
 
+#include "server/blob_store.h"
 #include "server/job_queue.h"
 #include "server/limits.h"
 #include "server/redis_client.h"
@@ -35,6 +36,8 @@ struct RedisQueueOptions {
   int max_deliveries = 3;                                            // then the dead-letter stream
   uint64_t max_result_bytes = uint64_t(256) << 20;                   // payload events of one job
   std::string prefix = "vpremesh:";
+  // Where uploads go; null: Redis itself (RedisBlobStore).
+  std::shared_ptr<BlobStore> blobs;
   // Called when a job this process ended changes state (metrics).
   std::function<void(const std::string& job_id, v1::JobState state)> on_state;
 };
@@ -100,6 +103,7 @@ class RedisQueue final : public JobQueue {
 
   RedisQueueOptions options_;
   RedisClient client_;
+  std::shared_ptr<BlobStore> blobs_;
   std::vector<std::string> streams_;  // highest priority first
   std::string clients_key_, finished_key_, dead_key_, doorbell_key_, wake_key_;
   std::atomic<bool> groups_ready_{false}, draining_{false}, closed_{false}, stopping_{false};

@@ -12,7 +12,8 @@
 //                    nevents.
 //   events:<ID>      stream of serialized JobEvents; event N has the entry id
 //                    0-(N+1), so Watch from sequence N is one XRANGE.
-//   upload:<ID>      the Draco upload, with --upload-ttl.
+//   upload:<ID>      the Draco upload, with --upload-ttl (RedisBlobStore; the
+//                    scripts delete it when the job ends).
 //   clients          hash: peer -> unfinished jobs (--max-jobs-per-client).
 //   finished         hash: state -> jobs ended so far (metrics).
 //   dead             the dead-letter stream: {job, reason, deliveries, worker}.
@@ -57,21 +58,21 @@ end
 
 // KEYS: job, upload, events, clients, the job's stream, doorbell, then every
 //       job stream.
-// ARGV: id, spec, peer, label, priority, now_ms, upload, upload_ttl_ms,
-//       max_queue, max_jobs_per_client, queued event, result_ttl_ms, group.
+// ARGV: id, spec, peer, label, priority, now_ms, max_queue,
+//       max_jobs_per_client, queued event, result_ttl_ms, group.
+// The upload is already in the BlobStore (server/blob_store.h).
 // Returns {1, waiting}, {0, waiting} (queue full), {-1, unfinished} (client
 // full) or {-2, 0} (id taken).
 inline constexpr const char* kSubmit = R"lua(
 local w = 0
-for i = 7, #KEYS do w = w + waiting(KEYS[i], ARGV[13]) end
-if w >= tonumber(ARGV[9]) then return {0, w} end
+for i = 7, #KEYS do w = w + waiting(KEYS[i], ARGV[11]) end
+if w >= tonumber(ARGV[7]) then return {0, w} end
 local mine = tonumber(redis.call('HGET', KEYS[4], ARGV[3]) or '0')
-if mine >= tonumber(ARGV[10]) then return {-1, mine} end
+if mine >= tonumber(ARGV[8]) then return {-1, mine} end
 if redis.call('EXISTS', KEYS[1]) == 1 then return {-2, 0} end
-redis.call('SET', KEYS[2], ARGV[7], 'PX', ARGV[8])
 redis.call('HSET', KEYS[1], 'spec', ARGV[2], 'peer', ARGV[3], 'label', ARGV[4], 'prio', ARGV[5], 'state', 1,
-           'submitted_ms', ARGV[6], 'ttl_ms', ARGV[12], 'deliveries', 0, 'token', 0, 'nevents', 0, 'stream', KEYS[5])
-append(KEYS[1], KEYS[3], ARGV[11])
+           'submitted_ms', ARGV[6], 'ttl_ms', ARGV[10], 'deliveries', 0, 'token', 0, 'nevents', 0, 'stream', KEYS[5])
+append(KEYS[1], KEYS[3], ARGV[9])
 redis.call('HSET', KEYS[1], 'entry', redis.call('XADD', KEYS[5], '*', 'job', ARGV[1]))
 redis.call('HINCRBY', KEYS[4], ARGV[3], 1)
 redis.call('XADD', KEYS[6], 'MAXLEN', '~', 100, '*', 'job', ARGV[1])

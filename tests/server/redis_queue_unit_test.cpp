@@ -337,5 +337,49 @@ TEST_F(RedisQueueTest, RedisDownIsUnavailableAndQueuedJobsSurviveItsRestart) {
   EXPECT_EQ(claimed->mesh, job().mesh);
 }
 
+// Object storage in miniature: what a BlobStore sees.
+class MemoryBlobStore final : public BlobStore {
+ public:
+  Status put(const std::string& key, std::string_view bytes, std::chrono::milliseconds) override {
+    std::lock_guard<std::mutex> lock(mu);
+    blobs[key] = std::string(bytes);
+    return Status::Ok();
+  }
+  StatusOr<std::optional<std::string>> get(const std::string& key) override {
+    std::lock_guard<std::mutex> lock(mu);
+    auto it = blobs.find(key);
+    return it == blobs.end() ? std::optional<std::string>() : std::optional<std::string>(it->second);
+  }
+  Status remove(const std::string& key) override {
+    std::lock_guard<std::mutex> lock(mu);
+    blobs.erase(key);
+    return Status::Ok();
+  }
+  std::mutex mu;
+  std::map<std::string, std::string> blobs;
+};
+
+TEST_F(RedisQueueTest, UploadsCanLiveOutsideRedis) {
+  auto store = std::make_shared<MemoryBlobStore>();
+  RedisQueueOptions o = options();
+  o.blobs = store;
+  RedisQueue server(o), worker(o);
+  const std::string id = server.submit(job()).value();
+  testing::RedisClient redis(redis_->port());
+  EXPECT_EQ(redis.command({"EXISTS", "vpremesh:upload:" + id})->integer, 0) << "the upload went to Redis";
+  ASSERT_EQ(store->blobs.size(), 1u);
+  auto claimed = worker.claim("w");
+  ASSERT_TRUE(claimed);
+  EXPECT_EQ(claimed->mesh, job().mesh);
+  worker.publish(id, completed());
+  EXPECT_TRUE(store->blobs.empty()) << "the upload outlived its job";
+  // A refused submission leaves nothing behind either.
+  o.limits.max_queue = 1;
+  RedisQueue full(o);
+  ASSERT_TRUE(full.submit(job(0, "b")).ok());
+  EXPECT_FALSE(full.submit(job(0, "c")).ok());
+  EXPECT_EQ(store->blobs.size(), 1u);
+}
+
 }  // namespace
 }  // namespace vpr::service

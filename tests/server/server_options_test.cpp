@@ -56,8 +56,22 @@ TEST(ServerOptions, FlagsReachTheLimits) {
 TEST(ServerOptions, DefaultsKeepTheLibraryLimits) {
   const ServerOptions o = parse({});
   EXPECT_EQ(o.limits.max_upload_bytes, ServerLimits{}.max_upload_bytes);
-  EXPECT_EQ(o.workers, 0);
+  EXPECT_EQ(o.workers, -1);  // one per GPU (or 1) with the embedded queue, 0 with Redis
   EXPECT_EQ(o.device, "auto");
+  EXPECT_EQ(o.queue, "embedded");
+  EXPECT_FALSE(uses_redis(o));
+}
+
+TEST(ServerOptions, QueueIsEmbeddedOrARedisUrl) {
+  ServerOptions o = parse({"--queue", "redis://cache:6380/1", "--upload-ttl", "60"});
+  EXPECT_TRUE(uses_redis(o));
+  EXPECT_TRUE(check_server_options(o).ok());
+  EXPECT_DOUBLE_EQ(o.upload_ttl_s, 60);
+  o.queue = "redis://cache:port";
+  const Status s = check_server_options(o);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("--queue"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("port"), std::string::npos) << s.message();
 }
 
 TEST(ServerOptions, AddressesNeedAPortInRange) {
