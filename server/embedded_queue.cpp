@@ -98,8 +98,7 @@ void EmbeddedQueue::notify(const std::string& job_id, v1::JobState state, bool s
                            const std::vector<std::shared_ptr<Slot>>& slots) {
   if (state_changed && options_.on_state) options_.on_state(job_id, state);
   for (const auto& slot : slots) {
-    std::lock_guard<std::recursive_mutex> lock(slot->mu);
-    if (slot->active) slot->fn();
+    slot->call();
   }
 }
 
@@ -246,8 +245,7 @@ StatusOr<uint64_t> EmbeddedQueue::subscribe(const std::string& job_id, Listener 
   std::lock_guard<std::mutex> lock(mu_);
   auto it = jobs_.find(job_id);
   if (it == jobs_.end()) return not_found(job_id);
-  auto slot = std::make_shared<Slot>();
-  slot->fn = std::move(listener);
+  auto slot = std::make_shared<Slot>(std::move(listener));
   const uint64_t token = next_token_++;
   it->second->listeners.emplace(token, std::move(slot));
   return token;
@@ -264,9 +262,7 @@ void EmbeddedQueue::unsubscribe(const std::string& job_id, uint64_t token) {
     slot = std::move(s->second);
     it->second->listeners.erase(s);
   }
-  // Waits for a call in progress on another thread.
-  std::lock_guard<std::recursive_mutex> lock(slot->mu);
-  slot->active = false;
+  slot->close();  // waits for a call in progress
 }
 
 size_t EmbeddedQueue::drain(const Status& reason) {

@@ -43,12 +43,7 @@ class EmbeddedQueue final : public JobQueue {
   QueueStats stats() override;
 
  private:
-  // A listener and the lock that lets unsubscribe wait for a running call.
-  struct Slot {
-    std::recursive_mutex mu;
-    bool active = true;
-    Listener fn;
-  };
+  using Slot = ListenerSlot;
   // (-priority, submission order): the set's first entry runs next.
   using Key = std::tuple<int, uint64_t>;
   struct Record {

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +24,28 @@ namespace vpr::service {
 struct EventBatch {
   std::vector<v1::JobEvent> events;  // consecutive sequence numbers from the requested one
   bool ended = false;                // the job's last event is in `events` or before it
+};
+
+// One subscriber's listener, as both queues hold it: called on the
+// publishing thread; close() returns only when no call is running and makes
+// later calls no-ops, so unsubscribe can return while another thread
+// publishes.
+class ListenerSlot {
+ public:
+  explicit ListenerSlot(std::function<void()> fn) : fn_(std::move(fn)) {}
+  void call() {
+    std::lock_guard<std::recursive_mutex> lock(mu_);
+    if (active_) fn_();
+  }
+  void close() {
+    std::lock_guard<std::recursive_mutex> lock(mu_);  // waits for a call in progress
+    active_ = false;
+  }
+
+ private:
+  std::recursive_mutex mu_;  // recursive: a listener may unsubscribe itself
+  bool active_ = true;
+  std::function<void()> fn_;
 };
 
 class JobQueue {

@@ -270,8 +270,7 @@ StatusOr<uint64_t> RedisQueue::subscribe(const std::string& job_id, Listener lis
   auto exists = client_.command({"EXISTS", key("job:", job_id)});
   if (!exists.ok()) return exists.status();
   if (as_int(exists->get()) == 0) return not_found(job_id);
-  auto slot = std::make_shared<Slot>();
-  slot->fn = std::move(listener);
+  auto slot = std::make_shared<Slot>(std::move(listener));
   uint64_t token = 0;
   {
     std::lock_guard<std::mutex> lock(watch_mu_);
@@ -297,8 +296,7 @@ void RedisQueue::unsubscribe(const std::string& job_id, uint64_t token) {
     it->second.slots.erase(s);
     if (it->second.slots.empty()) watched_.erase(it);
   }
-  std::lock_guard<std::recursive_mutex> lock(slot->mu);  // waits for a call in progress
-  slot->active = false;
+  slot->close();  // waits for a call in progress
 }
 
 // One thread follows every watched job's event stream with one blocking
@@ -350,8 +348,7 @@ void RedisQueue::watch_loop() {
         for (auto& [token, slot] : it->second.slots) slots.push_back(slot);
       }
       for (const auto& slot : slots) {
-        std::lock_guard<std::recursive_mutex> lock(slot->mu);
-        if (slot->active) slot->fn();
+        slot->call();
       }
     }
   }

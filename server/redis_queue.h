@@ -74,11 +74,7 @@ class RedisQueue final : public JobQueue {
     uint64_t payload_bytes = 0;
     bool lost = false;  // another worker owns it now
   };
-  struct Slot {
-    std::recursive_mutex mu;
-    bool active = true;
-    Listener fn;
-  };
+  using Slot = ListenerSlot;
   struct Watched {
     std::string last_id = "0-0";
     std::map<uint64_t, std::shared_ptr<Slot>> slots;
