@@ -763,5 +763,43 @@ TEST_F(RedisEndToEndTest, PoisonJobEndsInTheDeadLetterStream) {
   std::printf("[scaling] poison job: dead-lettered after %d deliveries, %d worker crashes\n", p.started(), crashed);
 }
 
+// Cancellation crosses hosts: a job submitted through replica A and running
+// on a worker process is cancelled through replica B; the worker stops at
+// its next stage boundary, the job ends CANCELLED with B's reason, and the
+// worker goes on to run the next job.
+TEST_F(RedisEndToEndTest, CancelThroughAnotherReplicaStopsTheRunningJob) {
+  const Input long_job = long_input();
+  std::vector<Input> inputs = small_inputs();
+  ASSERT_FALSE(HasFatalFailure());
+  ServerProcess* a = start_server();
+  ASSERT_STARTED(a, "server A");
+  ServerProcess* b = start_server();
+  ASSERT_STARTED(b, "server B");
+  ASSERT_READY(start_worker());
+  auto stub_a = make_stub(a->address());
+  auto stub_b = make_stub(b->address());
+
+  std::string id;
+  ASSERT_TRUE(submit_job(*stub_a, long_job.spec(), long_job.draco, &id).ok()) << all_logs();
+  ASSERT_TRUE(wait_until([&] { return get_job(*stub_a, id).state() == v1::JOB_STATE_RUNNING; })) << all_logs();
+  grpc::ClientContext context;
+  v1::JobRef ref;
+  ref.set_job_id(id);
+  v1::JobStatus after;
+  ASSERT_TRUE(stub_b->CancelJob(&context, ref, &after).ok());
+  EXPECT_EQ(after.state(), v1::JOB_STATE_RUNNING);  // asked; the worker stops at a stage boundary
+
+  const History h = watch_job(*stub_a, id);
+  ASSERT_TRUE(h.last() && h.last()->has_cancelled()) << h.describe() << "\n" << all_logs();
+  EXPECT_EQ(h.status.error_code(), grpc::StatusCode::CANCELLED);
+  EXPECT_NE(h.last()->cancelled().message().find("CancelJob"), std::string::npos) << h.last()->cancelled().message();
+  EXPECT_EQ(h.completed(), 0);
+  EXPECT_EQ(get_job(*stub_b, id).state(), v1::JOB_STATE_CANCELLED);
+
+  const History next = remesh_job(*stub_b, inputs[0]);
+  ASSERT_TRUE(next.status.ok()) << next.describe() << "\n" << all_logs();
+  EXPECT_TRUE(next.result == inputs[0].expected);
+}
+
 }  // namespace
 }  // namespace vpr::testing
