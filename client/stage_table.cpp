@@ -39,12 +39,14 @@ std::string format_stage_table(const PipelineResult& result, const RunSummary& s
   }
   out += row("write", "cpu", s.write_ms);
   out += row("total", "", total);
-  char footer[256];
+  // `watch` follows a job it did not submit: it knows no target.
+  char target[64] = "";
+  if (s.target_vertices > 0)
+    std::snprintf(target, sizeof target, " (target %u, %+.2f%%)", s.target_vertices, deviation_percent(s));
+  char footer[320];
   std::snprintf(footer, sizeof footer,
-                "input %zu vertices, %zu faces -> output %zu vertices, %zu faces (target %u, %+.2f%%); "
-                "%zu saliency points\n",
-                s.input_vertices, s.input_faces, s.output_vertices, s.output_faces, s.target_vertices,
-                deviation_percent(s), result.saliency_points);
+                "input %zu vertices, %zu faces -> output %zu vertices, %zu faces%s; %zu saliency points\n",
+                s.input_vertices, s.input_faces, s.output_vertices, s.output_faces, target, result.saliency_points);
   out += footer;
   return out;
 }
