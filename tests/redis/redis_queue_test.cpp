@@ -104,6 +104,14 @@ class RedisEndToEndTest : public ::testing::Test {
     servers_.push_back(std::make_unique<ServerProcess>(all));
     return servers_.back().get();
   }
+  // Replicas A and B on the test's Redis: a fatal failure (with every log)
+  // when one does not start. Call through ASSERT_NO_FATAL_FAILURE.
+  void start_replicas(ServerProcess** a, ServerProcess** b) {
+    *a = start_server();
+    ASSERT_TRUE((*a)->started()) << "server A\n" << all_logs();
+    *b = start_server();
+    ASSERT_TRUE((*b)->started()) << "server B\n" << all_logs();
+  }
   WorkerProcess* start_worker(const std::vector<std::string>& flags = {}, const std::vector<std::string>& env = {}) {
     std::vector<std::string> all = kWorkerFlags;
     all.insert(all.end(), flags.begin(), flags.end());
@@ -342,10 +350,8 @@ TEST_F(RedisEndToEndTest, RedisKeepsItsDataThroughSigkill) {
 TEST_F(RedisEndToEndTest, ThirtyJobsOverTwoReplicasAndThreeWorkers) {
   std::vector<Input> inputs = small_inputs();
   ASSERT_FALSE(HasFatalFailure());
-  ServerProcess* a = start_server();
-  ASSERT_STARTED(a, "server A");
-  ServerProcess* b = start_server();
-  ASSERT_STARTED(b, "server B");
+  ServerProcess *a = nullptr, *b = nullptr;
+  ASSERT_NO_FATAL_FAILURE(start_replicas(&a, &b));
   const std::vector<std::string> replicas = {a->address(), b->address()};
   for (int i = 0; i < 3; ++i) ASSERT_READY(start_worker());
   std::set<pid_t> worker_pids;
@@ -576,10 +582,8 @@ TEST_F(RedisEndToEndTest, SigtermedWorkerFinishesItsJobThenExits) {
 TEST_F(RedisEndToEndTest, QueuedJobsSurviveARedisRestart) {
   std::vector<Input> inputs = small_inputs();
   ASSERT_FALSE(HasFatalFailure());
-  ServerProcess* a = start_server();
-  ASSERT_STARTED(a, "server A");
-  ServerProcess* b = start_server();
-  ASSERT_STARTED(b, "server B");
+  ServerProcess *a = nullptr, *b = nullptr;
+  ASSERT_NO_FATAL_FAILURE(start_replicas(&a, &b));
   const std::vector<std::string> replicas = {a->address(), b->address()};
   std::vector<std::unique_ptr<v1::RemeshService::Stub>> stubs;
   for (const auto& r : replicas) stubs.push_back(make_stub(r));
@@ -651,10 +655,8 @@ TEST_F(RedisEndToEndTest, QueuedJobsSurviveARedisRestart) {
 TEST_F(RedisEndToEndTest, ClientsReattachToTheOtherReplicaWhenOneDies) {
   const Input input = long_input();
   ASSERT_FALSE(HasFatalFailure());
-  ServerProcess* a = start_server();
-  ASSERT_STARTED(a, "server A");
-  ServerProcess* b = start_server();
-  ASSERT_STARTED(b, "server B");
+  ServerProcess *a = nullptr, *b = nullptr;
+  ASSERT_NO_FATAL_FAILURE(start_replicas(&a, &b));
   ASSERT_READY(start_worker());
   const std::string both = a->address() + "," + b->address();
 
@@ -771,10 +773,8 @@ TEST_F(RedisEndToEndTest, CancelThroughAnotherReplicaStopsTheRunningJob) {
   const Input long_job = long_input();
   std::vector<Input> inputs = small_inputs();
   ASSERT_FALSE(HasFatalFailure());
-  ServerProcess* a = start_server();
-  ASSERT_STARTED(a, "server A");
-  ServerProcess* b = start_server();
-  ASSERT_STARTED(b, "server B");
+  ServerProcess *a = nullptr, *b = nullptr;
+  ASSERT_NO_FATAL_FAILURE(start_replicas(&a, &b));
   ASSERT_READY(start_worker());
   auto stub_a = make_stub(a->address());
   auto stub_b = make_stub(b->address());
