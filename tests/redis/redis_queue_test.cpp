@@ -787,7 +787,10 @@ TEST_F(RedisEndToEndTest, CancelThroughAnotherReplicaStopsTheRunningJob) {
   ref.set_job_id(id);
   v1::JobStatus after;
   ASSERT_TRUE(stub_b->CancelJob(&context, ref, &after).ok());
-  EXPECT_EQ(after.state(), v1::JOB_STATE_RUNNING);  // asked; the worker stops at a stage boundary
+  // Asked: the worker stops at its next check, which may come before
+  // CancelJob reads the state back.
+  EXPECT_TRUE(after.state() == v1::JOB_STATE_RUNNING || after.state() == v1::JOB_STATE_CANCELLED)
+      << v1::JobState_Name(after.state());
 
   const History h = watch_job(*stub_a, id);
   ASSERT_TRUE(h.last() && h.last()->has_cancelled()) << h.describe() << "\n" << all_logs();
