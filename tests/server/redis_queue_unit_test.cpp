@@ -250,12 +250,12 @@ TEST_F(RedisQueueTest, AnAbandonedJobIsReclaimedAndOnlyTheNewOwnerAnswers) {
 
 TEST_F(RedisQueueTest, HeartbeatsKeepARunningJobFromBeingReclaimed) {
   RedisQueueOptions o = options();
-  o.visibility_timeout = 400ms;
+  o.visibility_timeout = 1000ms;
   o.heartbeat = 100ms;
   RedisQueue server(o), owner(o), other(o);
   const std::string id = server.submit(job()).value();
   ASSERT_TRUE(owner.claim("owner"));
-  EXPECT_FALSE(claim_within(other, "other", 1500ms)) << "a job with live heartbeats was taken over";
+  EXPECT_FALSE(claim_within(other, "other", 2500ms)) << "a job with live heartbeats was taken over";
   EXPECT_FALSE(owner.cancellation(id));
   EXPECT_EQ(server.status(id)->worker(), "owner");
 }
