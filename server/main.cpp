@@ -18,6 +18,7 @@
 
 #include "server/embedded_queue.h"
 #include "server/metrics_http.h"
+#include "server/process_main.h"
 #include "server/redis_queue.h"
 #include "server/remesh_service.h"
 #include "server/server_options.h"
@@ -32,31 +33,12 @@ namespace {
 
 constexpr const char* kServiceName = "vpremesh.v1.RemeshService";
 
-int fail(const std::string& message, int code = 1) {
-  spdlog::error("{}", message);
-  return code;
-}
-
-// The host part of HOST:PORT ("[::]" kept with its brackets).
-std::string host_of(const std::string& address) {
-  return address.substr(0, address.rfind(':'));
-}
-
-std::chrono::milliseconds seconds(double s) {
-  return std::chrono::milliseconds(int64_t(s * 1000));
-}
-
 int run(const ServerOptions& o) {
   spdlog::set_level(spdlog::level::from_str(o.log_level));
   if (Status s = check_server_options(o); !s.ok()) return fail(s.message(), 2);
 
-  // Every thread started from here on inherits the blocked signals; the main
-  // thread takes them with sigtimedwait.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // Every thread started from here on inherits the blocked signals.
+  const sigset_t signals = block_stop_signals();
 
   // Devices and workers.
   int gpus = 0;
@@ -182,23 +164,19 @@ int run(const ServerOptions& o) {
 
   // Wait for SIGTERM / SIGINT, forgetting expired results and checking the
   // queue's store once a second.
-  int signal_number = -1;
-  while (signal_number < 0) {
-    timespec one_second{1, 0};
-    signal_number = sigtimedwait(&signals, nullptr, &one_second);
+  const int signal_number = wait_for_stop_signal(signals, [&] {
     queue->expire();
-    if (redis && signal_number < 0) {
-      Status h = queue->health();
-      if (h.ok() != queue_health.ok()) {
-        if (h.ok())
-          spdlog::info("the job queue answers again: SERVING");
-        else
-          spdlog::error("{}: NOT_SERVING", h.message());
-        set_queue_serving(h.ok());
-      }
-      queue_health = h;
+    if (!redis) return;
+    Status h = queue->health();
+    if (h.ok() != queue_health.ok()) {
+      if (h.ok())
+        spdlog::info("the job queue answers again: SERVING");
+      else
+        spdlog::error("{}: NOT_SERVING", h.message());
+      set_queue_serving(h.ok());
     }
-  }
+    queue_health = h;
+  });
 
   spdlog::info("{}: draining (grace {} s)", signal_number == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_grace_s);
   draining = true;

@@ -19,8 +19,14 @@ int64_t unix_ms() {
       .count();
 }
 
-std::string script(const char* body) {
-  return std::string(lua::kCommon) + body;
+// Each script with the shared functions in front, built once.
+const std::string& script(const char* body) {
+  static std::mutex mu;
+  static std::map<const char*, std::string> texts;
+  std::lock_guard<std::mutex> lock(mu);
+  auto [it, added] = texts.try_emplace(body);
+  if (added) it->second = std::string(lua::kCommon) + body;
+  return it->second;
 }
 
 std::string serialize(const v1::JobEvent& e) {
@@ -114,7 +120,7 @@ Status RedisQueue::not_found(const std::string& job_id) const {
 StatusOr<RedisReply> RedisQueue::run(const char* body, const std::vector<std::string>& keys,
                                      const std::vector<std::string_view>& args) {
   VPR_RETURN_IF_ERROR(ensure_groups());
-  const std::string text = script(body);
+  const std::string& text = script(body);
   auto r = client_.eval(text, keys, args);
   if (!r.ok() && r.status().message().find("NOGROUP") != std::string::npos) {
     // Redis came back without its data (no AOF): recreate the groups.

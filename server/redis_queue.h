@@ -99,9 +99,9 @@ class RedisQueue final : public JobQueue {
 
   RedisQueueOptions options_;
   RedisClient client_;
-  std::shared_ptr<BlobStore> blobs_;
   std::vector<std::string> streams_;  // highest priority first
   std::string clients_key_, finished_key_, dead_key_, doorbell_key_, wake_key_;
+  std::shared_ptr<BlobStore> blobs_;
   std::atomic<bool> groups_ready_{false}, draining_{false}, closed_{false}, stopping_{false};
 
   std::mutex held_mu_;

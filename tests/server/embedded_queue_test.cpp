@@ -1,6 +1,7 @@
 // EmbeddedQueue: ordering, cancellation, event replay, result retention and
 // the limits it enforces. No timing: the clock is a variable.
 #include "server/embedded_queue.h"
+#include "server/test_submission.h"
 
 #include <grpcpp/support/status.h>
 #include <gtest/gtest.h>
@@ -28,13 +29,7 @@ struct Fixture {
   }
 
   std::string submit(int priority, const std::string& peer = "client-a", const std::string& label = "") {
-    JobSubmission s;
-    s.spec.set_target_vertices(1000);
-    s.spec.set_priority(priority);
-    s.spec.set_label(label);
-    s.mesh = {'D', 'R', 'A', 'C', 'O', 1, 2, 3};
-    s.peer = peer;
-    auto id = queue.submit(std::move(s));
+    auto id = queue.submit(test_submission(priority, peer, label));
     EXPECT_TRUE(id.ok()) << id.status().to_string();
     return id.ok() ? *id : "";
   }

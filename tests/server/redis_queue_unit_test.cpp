@@ -11,6 +11,7 @@
 #include "redis/redis_harness.h"
 #include "server/redis_queue.h"
 #include "server/status_mapping.h"
+#include "server/test_submission.h"
 
 namespace vpr::service {
 namespace {
@@ -45,13 +46,7 @@ class RedisQueueTest : public ::testing::Test {
   }
 
   static JobSubmission job(int priority = 0, const std::string& peer = "client-a", const std::string& label = "") {
-    JobSubmission s;
-    s.spec.set_target_vertices(1000);
-    s.spec.set_priority(priority);
-    s.spec.set_label(label);
-    s.mesh = {'D', 'R', 'A', 'C', 'O', 1, 2, 3};
-    s.peer = peer;
-    return s;
+    return test_submission(priority, peer, label);
   }
 
   static v1::JobEvent completed() {

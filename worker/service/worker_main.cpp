@@ -15,6 +15,7 @@
 #include <cstdlib>
 
 #include "server/metrics_http.h"
+#include "server/process_main.h"
 #include "server/redis_queue.h"
 #include "server/service_metrics.h"
 #include "server/worker_pool.h"
@@ -26,29 +27,12 @@
 namespace vpr::service {
 namespace {
 
-int fail(const std::string& message, int code = 1) {
-  spdlog::error("{}", message);
-  return code;
-}
-
-std::chrono::milliseconds seconds(double s) {
-  return std::chrono::milliseconds(int64_t(s * 1000));
-}
-
-std::string host_of(const std::string& address) {
-  return address.substr(0, address.rfind(':'));
-}
-
 int run(const WorkerOptions& o) {
   spdlog::set_level(spdlog::level::from_str(o.log_level));
   if (Status s = check_worker_options(o); !s.ok()) return fail(s.message(), 2);
   const RedisEndpoint endpoint = parse_redis_url(o.queue).value();
 
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  const sigset_t signals = block_stop_signals();
 
   int gpus = 0;
   std::string no_gpu_why = "this build has no CUDA support";
@@ -127,11 +111,7 @@ int run(const WorkerOptions& o) {
                "max deliveries {}",
                live, workers, o.device, used_gpus, o.visibility_timeout_s, o.heartbeat_s, o.max_deliveries);
 
-  int signal_number = -1;
-  while (signal_number < 0) {
-    timespec one_second{1, 0};
-    signal_number = sigtimedwait(&signals, nullptr, &one_second);
-  }
+  const int signal_number = wait_for_stop_signal(signals, [] {});
   spdlog::info("{}: no new jobs; waiting up to {} s for {} running job(s)",
                signal_number == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_grace_s, pool.busy());
   queue.close();
