@@ -24,11 +24,15 @@ struct CliRun {
 };
 
 // Runs `vpremesh ARGS` (a shell command line), stdout and stderr apart.
-inline CliRun run_cli(const std::string& args) {
+// stderr goes to `err_path` when one is given (and stays there, so that a test
+// can watch the client's progress while it runs), else to a temporary file.
+inline CliRun run_cli(const std::string& args, std::string err_path = {}) {
   static std::atomic<int> counter{0};
-  const std::string err_path = (std::filesystem::temp_directory_path() /
-                                ("vpremesh_cli_err_" + std::to_string(::getpid()) + "_" + std::to_string(counter++)))
-                                   .string();
+  const bool keep_err = !err_path.empty();
+  if (!keep_err)
+    err_path = (std::filesystem::temp_directory_path() /
+                ("vpremesh_cli_err_" + std::to_string(::getpid()) + "_" + std::to_string(counter++)))
+                   .string();
   const std::string cmd = std::string(VPR_CLI_PATH) + " " + args + " 2>" + err_path;
   CliRun r;
   FILE* pipe = ::popen(cmd.c_str(), "r");
@@ -40,7 +44,7 @@ inline CliRun run_cli(const std::string& args) {
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   std::ifstream err(err_path, std::ios::binary);
   r.err.assign(std::istreambuf_iterator<char>(err), std::istreambuf_iterator<char>());
-  std::filesystem::remove(err_path);
+  if (!keep_err) std::filesystem::remove(err_path);
   return r;
 }
 
