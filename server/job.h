@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,9 @@ struct ClaimedJob {
 // Jobs by state, for metrics and health.
 struct QueueStats {
   size_t queued = 0, running = 0, succeeded = 0, failed = 0, cancelled = 0;  // jobs held now
+  // Worker threads on every host that share the queue, and those running a
+  // job; only a shared queue (Redis) knows them.
+  std::optional<size_t> fleet_workers, fleet_busy;
 };
 
 inline bool is_terminal(const v1::JobEvent& e) {

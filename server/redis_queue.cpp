@@ -70,6 +70,8 @@ RedisQueue::RedisQueue(RedisQueueOptions options)
       dead_key_(options_.prefix + "dead"),
       doorbell_key_(options_.prefix + "doorbell"),
       wake_key_(options_.prefix + "wake:" + new_id()),
+      workers_key_(options_.prefix + "workers"),
+      busy_key_(options_.prefix + "workers:busy"),
       blobs_(options_.blobs ? options_.blobs : std::make_shared<RedisBlobStore>(client_)) {
   for (int p = kMaxPriority; p >= kMinPriority; --p) streams_.push_back(options_.prefix + "jobs:" + std::to_string(p));
   if (Status s = ensure_groups(); !s.ok()) spdlog::warn("{} (will retry)", s.message());
@@ -78,27 +80,37 @@ RedisQueue::RedisQueue(RedisQueueOptions options)
 
 RedisQueue::~RedisQueue() {
   close();
-  // A worker leaving cleanly removes its consumers from the group, so the
-  // group lists live workers only. Not while it holds a job: deleting a
-  // consumer drops its pending entries, which must stay to be reclaimed.
-  {
-    std::lock_guard<std::mutex> lock(held_mu_);
-    bool reachable = held_.empty();
-    for (const std::string& consumer : consumers_)
-      for (const std::string& stream : streams_)
-        if (reachable) {
-          auto r = client_.command({"XGROUP", "DELCONSUMER", stream, kGroup, consumer});
-          reachable = r.ok() || r.status().code() != StatusCode::kUnavailable;
-        }
-  }
   {
     std::lock_guard<std::mutex> lock(stop_mu_);
     stopping_ = true;
   }
   stop_cv_.notify_all();
+  if (heartbeats_.joinable()) heartbeats_.join();  // no renewal after the removal below
+  // A worker leaving cleanly removes its consumers from the group, so the
+  // group lists live workers only. Not while it holds a job: deleting a
+  // consumer drops its pending entries, which must stay to be reclaimed.
+  {
+    std::lock_guard<std::mutex> lock(held_mu_);
+    const bool holds = !held_.empty();
+    bool reachable = true;
+    for (const std::string& consumer : consumers_)
+      for (const std::string& stream : streams_)
+        if (reachable && !holds) {
+          auto r = client_.command({"XGROUP", "DELCONSUMER", stream, kGroup, consumer});
+          reachable = r.ok() || r.status().code() != StatusCode::kUnavailable;
+        }
+    // Out of the registry at once; while it holds jobs, as expired, so that
+    // a live worker removes the consumers once their jobs were reclaimed.
+    for (const std::string& consumer : consumers_)
+      if (reachable) {
+        auto r = holds ? client_.command({"ZADD", workers_key_, "0", consumer})
+                       : client_.command({"ZREM", workers_key_, consumer});
+        (void)client_.command({"ZREM", busy_key_, consumer});
+        reachable = r.ok() || r.status().code() != StatusCode::kUnavailable;
+      }
+  }
   watch_cv_.notify_all();
   if (watcher_.joinable()) watcher_.join();
-  if (heartbeats_.joinable()) heartbeats_.join();
 }
 
 Status RedisQueue::ensure_groups() {
@@ -377,6 +389,11 @@ QueueStats RedisQueue::stats() {
     s.queued = size_t(std::max<int64_t>(0, as_int(element(count->get(), 0))));
     s.running = size_t(as_int(element(count->get(), 1)));
   }
+  auto fleet = run(lua::kFleet, {workers_key_, busy_key_}, {});
+  if (fleet.ok()) {
+    s.fleet_workers = size_t(as_int(element(fleet->get(), 0)));
+    s.fleet_busy = size_t(as_int(element(fleet->get(), 1)));
+  }
   auto finished = client_.command({"HMGET", finished_key_, "3", "4", "5"});
   if (finished.ok()) {
     s.succeeded = size_t(as_int(element(finished->get(), 0)));
@@ -402,6 +419,7 @@ std::optional<ClaimedJob> RedisQueue::claim(const std::string& worker) {
     std::lock_guard<std::mutex> lock(held_mu_);
     consumers_.insert(worker);
   }
+  start_heartbeats();  // also registers the worker (renew_registration)
   std::vector<std::string> claim_keys = {doorbell_key_};
   claim_keys.insert(claim_keys.end(), streams_.begin(), streams_.end());
   int attempt = 0;
@@ -441,7 +459,6 @@ std::optional<ClaimedJob> RedisQueue::claim(const std::string& worker) {
       std::lock_guard<std::mutex> lock(held_mu_);
       held_[id] = Held{token, worker, {}, 0, false};
     }
-    start_heartbeats();
     auto upload = blobs_->get(key("upload:", id));
     if (upload.ok() && !upload->has_value()) {
       v1::JobEvent e;
@@ -604,13 +621,35 @@ void RedisQueue::start_heartbeats() {
   if (!heartbeats_.joinable()) heartbeats_ = std::thread([this] { heartbeat_loop(); });
 }
 
+void RedisQueue::renew_registration() {
+  std::vector<std::string> args = {std::to_string(options_.visibility_timeout.count()), kGroup};
+  {
+    std::lock_guard<std::mutex> lock(held_mu_);
+    std::set<std::string> busy;
+    for (const auto& [id, h] : held_)
+      if (!h.lost) busy.insert(h.consumer);
+    for (const std::string& consumer : consumers_) {
+      args.push_back(consumer);
+      args.push_back(busy.count(consumer) ? "1" : "0");
+    }
+  }
+  std::vector<std::string> keys = {workers_key_, busy_key_};
+  keys.insert(keys.end(), streams_.begin(), streams_.end());
+  auto r = run(lua::kAlive, keys, std::vector<std::string_view>(args.begin(), args.end()));
+  if (!r.ok())
+    spdlog::warn("worker registration failed: {}", r.status().message());
+  else if (int64_t removed = as_int(r->get()); removed > 0)
+    spdlog::info("removed {} consumer(s) of stopped workers from the group", removed);
+}
+
 void RedisQueue::heartbeat_loop() {
-  while (true) {
-    {
+  for (bool first = true;; first = false) {
+    if (!first) {
       std::unique_lock<std::mutex> lock(stop_mu_);
       stop_cv_.wait_for(lock, options_.heartbeat, [&] { return stopping_.load(); });
       if (stopping_) return;
     }
+    renew_registration();
     std::vector<std::tuple<std::string, std::string, std::string>> jobs;
     {
       std::lock_guard<std::mutex> lock(held_mu_);
@@ -622,9 +661,12 @@ void RedisQueue::heartbeat_loop() {
       if (!r.ok()) {
         spdlog::warn("job {}: heartbeat failed: {}", id, r.status().message());
       } else if (as_int(r->get()) == 0) {
-        spdlog::warn("job {}: {} no longer owns it (reclaimed or ended elsewhere)", id, consumer);
+        // Unless this process ended the job meanwhile, another owns it now.
         std::lock_guard<std::mutex> lock(held_mu_);
-        if (auto it = held_.find(id); it != held_.end()) it->second.lost = true;
+        if (auto it = held_.find(id); it != held_.end() && it->second.token == token) {
+          spdlog::warn("job {}: {} no longer owns it (reclaimed or ended elsewhere)", id, consumer);
+          it->second.lost = true;
+        }
       }
     }
   }

@@ -95,12 +95,15 @@ class RedisQueue final : public JobQueue {
   void backoff(const Status& why, int* attempt, bool until_close = true);
   void watch_loop();
   void heartbeat_loop();
+  // Renews this process's consumers in the worker registry and removes
+  // killed workers' consumers from the group (lua::kAlive).
+  void renew_registration();
   void start_heartbeats();
 
   RedisQueueOptions options_;
   RedisClient client_;
   std::vector<std::string> streams_;  // highest priority first
-  std::string clients_key_, finished_key_, dead_key_, doorbell_key_, wake_key_;
+  std::string clients_key_, finished_key_, dead_key_, doorbell_key_, wake_key_, workers_key_, busy_key_;
   std::shared_ptr<BlobStore> blobs_;
   std::atomic<bool> groups_ready_{false}, draining_{false}, closed_{false}, stopping_{false};
 

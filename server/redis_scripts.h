@@ -21,6 +21,9 @@
 //                    block on it (XREAD) instead of polling.
 //   wake:<random>    one per server process: subscribe() writes to it to wake
 //                    the process's blocking XREAD over watched event streams.
+//   workers          sorted set: consumer (one worker thread) -> expiry in
+//                    Redis time (ms); renewed with every heartbeat period.
+//   workers:busy     the same for the consumers running a job now.
 //
 // `token` is the job's delivery number. Every write by a worker carries the
 // token it claimed with and is refused once another worker has reclaimed the
@@ -34,6 +37,11 @@ inline constexpr const char* kCommon = R"lua(
 local function append(job, events, bytes)
   local n = redis.call('HINCRBY', job, 'nevents', 1)
   redis.call('XADD', events, '0-' .. n, 'e', bytes)
+end
+-- Redis's clock in ms: every host's expiries compare against one clock.
+local function redis_ms()
+  local t = redis.call('TIME')
+  return tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000)
 end
 local function waiting(stream, group)
   return redis.call('XLEN', stream) - redis.call('XPENDING', stream, group)[1]
@@ -183,6 +191,41 @@ local f = redis.call('HMGET', KEYS[1], 'token', 'state', 'stream', 'entry')
 if f[1] ~= ARGV[1] or f[2] ~= '2' then return 0 end
 redis.call('XCLAIM', f[3], ARGV[2], ARGV[3], 0, f[4], 'JUSTID')
 return 1
+)lua";
+
+// KEYS: the worker registry, its busy subset (sorted sets: consumer ->
+// expiry in Redis ms), then every job stream. ARGV: time to live (ms), group,
+// then (consumer, busy 0|1) pairs of this process.
+// Renews this process's consumers, then removes consumers whose process
+// stopped renewing (killed) from the group, once they own no entry: deleting
+// a consumer drops its pending entries, which must wait to be reclaimed.
+// Returns how many consumers it removed.
+inline constexpr const char* kAlive = R"lua(
+local now = redis_ms()
+local expiry = now + tonumber(ARGV[1])
+for i = 3, #ARGV, 2 do
+  redis.call('ZADD', KEYS[1], expiry, ARGV[i])
+  if ARGV[i + 1] == '1' then redis.call('ZADD', KEYS[2], expiry, ARGV[i]) else redis.call('ZREM', KEYS[2], ARGV[i]) end
+end
+local removed = 0
+for _, c in ipairs(redis.call('ZRANGEBYSCORE', KEYS[1], '-inf', now)) do
+  local owns = 0
+  for s = 3, #KEYS do owns = owns + #redis.call('XPENDING', KEYS[s], ARGV[2], '-', '+', 1, c) end
+  if owns == 0 then
+    for s = 3, #KEYS do redis.call('XGROUP', 'DELCONSUMER', KEYS[s], ARGV[2], c) end
+    redis.call('ZREM', KEYS[1], c)
+    redis.call('ZREM', KEYS[2], c)
+    removed = removed + 1
+  end
+end
+return removed
+)lua";
+
+// KEYS: the worker registry and its busy subset. Returns {live, busy}:
+// worker threads on any host that renewed within their time to live.
+inline constexpr const char* kFleet = R"lua(
+local now = redis_ms()
+return {redis.call('ZCOUNT', KEYS[1], now, '+inf'), redis.call('ZCOUNT', KEYS[2], now, '+inf')}
 )lua";
 
 // KEYS: job streams to count. ARGV: group.

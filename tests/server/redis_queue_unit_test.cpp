@@ -7,9 +7,12 @@
 #include <condition_variable>
 #include <future>
 #include <thread>
+#include <functional>
+#include <set>
 
 #include "redis/redis_harness.h"
 #include "server/redis_queue.h"
+#include "server/service_metrics.h"
 #include "server/status_mapping.h"
 #include "server/test_submission.h"
 
@@ -253,6 +256,98 @@ TEST_F(RedisQueueTest, HeartbeatsKeepARunningJobFromBeingReclaimed) {
   EXPECT_FALSE(claim_within(other, "other", 2500ms)) << "a job with live heartbeats was taken over";
   EXPECT_FALSE(owner.cancellation(id));
   EXPECT_EQ(server.status(id)->worker(), "owner");
+}
+
+// The names in the consumer group of one job stream.
+std::set<std::string> group_consumers(RedisClient& redis, const std::string& stream) {
+  std::set<std::string> names;
+  auto r = redis.command({"XINFO", "CONSUMERS", stream, "workers"});
+  EXPECT_TRUE(r.ok()) << r.status().to_string();
+  if (!r.ok()) return names;
+  for (size_t i = 0; i < array_size(r->get()); ++i) {
+    const redisReply* c = element(r->get(), i);
+    for (size_t j = 0; j + 1 < array_size(c); j += 2)
+      if (as_string(element(c, j)) == "name") names.insert(as_string(element(c, j + 1)));
+  }
+  return names;
+}
+
+bool eventually(const std::function<bool()>& done, std::chrono::milliseconds limit = 5000ms) {
+  for (auto until = std::chrono::steady_clock::now() + limit; !done();) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(20ms);
+  }
+  return true;
+}
+
+// Worker threads register with every heartbeat, so a server replica that
+// runs no worker still counts the fleet (vpremesh_queue_workers) and the busy
+// ones; a worker that exits cleanly leaves the count at once.
+TEST_F(RedisQueueTest, ServersCountEveryHostsWorkersAndTheBusyOnes) {
+  RedisQueueOptions o = options();
+  o.visibility_timeout = 1000ms;
+  o.heartbeat = 100ms;
+  RedisQueue server(o);
+  EXPECT_EQ(server.stats().fleet_workers, std::optional<size_t>(0));
+  auto worker = std::make_unique<RedisQueue>(o);
+  const std::string id = server.submit(job()).value();
+  ASSERT_TRUE(worker->claim("host-a/worker-0"));
+  auto idle = std::async(std::launch::async, [&] { return worker->claim("host-a/worker-1"); });
+  auto fleet = [&](size_t live, size_t busy) {
+    const QueueStats s = server.stats();
+    return s.fleet_workers == live && s.fleet_busy == busy;
+  };
+  EXPECT_TRUE(eventually([&] { return fleet(2, 1); })) << server.stats().fleet_workers.value_or(99);
+
+  MetricsRegistry registry;
+  ServiceMetrics metrics(registry);
+  metrics.set_queue(server.stats());
+  const std::string text = registry.render();
+  EXPECT_NE(text.find("\nvpremesh_queue_workers 2\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("\nvpremesh_queue_busy_workers 1\n"), std::string::npos) << text;
+
+  worker->publish(id, completed());
+  EXPECT_TRUE(eventually([&] { return fleet(2, 0); }));
+  worker->close();
+  EXPECT_FALSE(idle.get());
+  worker.reset();
+  EXPECT_TRUE(fleet(0, 0)) << "a clean exit must leave the count at once";
+  RedisClient redis(o.endpoint);
+  EXPECT_TRUE(group_consumers(redis, "vpremesh:jobs:0").empty());
+}
+
+// A killed worker leaves its consumers in the group; a live worker removes
+// them once their registration expired, but only once they own no entry
+// (deleting a consumer would drop its pending jobs).
+TEST_F(RedisQueueTest, KilledWorkersLeaveTheGroupOnceTheirJobsWereReclaimed) {
+  RedisQueueOptions o = options();
+  o.heartbeat = 100ms;  // visibility stays 60 s: nothing is reclaimed by itself here
+  RedisQueue server(o);
+  const std::string id = server.submit(job()).value();
+  RedisClient redis(o.endpoint);
+  const std::string stream = "vpremesh:jobs:0";
+  // Two workers that were kill -9'd: one idle, one holding the job.
+  ASSERT_TRUE(redis.command({"XGROUP", "CREATECONSUMER", stream, "workers", "ghost-idle"}).ok());
+  ASSERT_TRUE(redis.command({"XREADGROUP", "GROUP", "workers", "ghost-busy", "COUNT", "1", "STREAMS", stream, ">"}).ok());
+  for (const char* ghost : {"ghost-idle", "ghost-busy"})
+    ASSERT_TRUE(redis.command({"ZADD", "vpremesh:workers", "1", ghost}).ok());  // expired long ago
+
+  RedisQueue live(o);
+  EXPECT_FALSE(claim_within(live, "live-0", 500ms)) << "the ghost's job is not stale yet";
+  EXPECT_TRUE(eventually([&] { return !group_consumers(redis, stream).count("ghost-idle"); }));
+  EXPECT_TRUE(group_consumers(redis, stream).count("ghost-busy")) << "removed while it held job " << id;
+
+  // Another worker reclaims the ghost's job: now the ghost goes too.
+  auto pending = redis.command({"XPENDING", stream, "workers", "-", "+", "1", "ghost-busy"});
+  ASSERT_TRUE(pending.ok() && array_size(pending->get()) == 1);
+  const std::string entry = as_string(element(element(pending->get(), 0), 0));
+  ASSERT_TRUE(redis.command({"XCLAIM", stream, "workers", "rescuer", "0", entry, "JUSTID"}).ok());
+  EXPECT_TRUE(eventually([&] { return !group_consumers(redis, stream).count("ghost-busy"); }));
+  EXPECT_TRUE(group_consumers(redis, stream).count("rescuer"));
+  auto score = redis.command({"ZSCORE", "vpremesh:workers", "ghost-busy"});
+  ASSERT_TRUE(score.ok());
+  EXPECT_TRUE(is_nil(score->get()));
+  EXPECT_EQ(server.stats().fleet_workers, std::optional<size_t>(1));  // live-0
 }
 
 TEST_F(RedisQueueTest, AJobThatKeepsLosingItsWorkerEndsInTheDeadLetterStream) {
