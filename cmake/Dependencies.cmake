@@ -29,8 +29,6 @@ pkg_check_modules(PROTOBUF IMPORTED_TARGET protobuf)
 find_program(VPR_PROTOC protoc)
 find_program(VPR_GRPC_CPP_PLUGIN grpc_cpp_plugin)
 find_library(VPR_GRPCPP_REFLECTION grpc++_reflection)
-find_path(VPR_CIVETWEB_INCLUDE civetweb.h)
-find_library(VPR_CIVETWEB_LIBRARY civetweb)
 # The Redis Streams job queue (server/redis_*, vpremesh-worker): hiredis 0.14.
 pkg_check_modules(HIREDIS IMPORTED_TARGET hiredis)
 

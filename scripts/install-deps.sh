@@ -9,7 +9,7 @@ packages=(
   libeigen3-dev libtbb-dev libspdlog-dev libfmt-dev libgtest-dev libgmock-dev
   libosmesa6-dev libegl-dev libegl1-mesa-dev libegl-mesa0 libgl1-mesa-dri libgl-dev
   libpng-dev nlohmann-json3-dev libcli11-dev libmeshoptimizer-dev
-  libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc libcivetweb-dev
+  libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   python3-grpcio python3-protobuf python3-yaml
   redis-server libhiredis-dev
 )

@@ -12,6 +12,7 @@
 #include <set>
 
 #include "grpc/health/v1/health.grpc.pb.h"
+#include "http_get.h"
 #include "redis_harness.h"
 #include "test_meshes.h"
 
@@ -106,8 +107,8 @@ class RedisEndToEndTest : public ::testing::Test {
   }
   // Replicas A and B on the test's Redis: a fatal failure (with every log)
   // when one does not start. Call through ASSERT_NO_FATAL_FAILURE.
-  void start_replicas(ServerProcess** a, ServerProcess** b) {
-    *a = start_server();
+  void start_replicas(ServerProcess** a, ServerProcess** b, const std::vector<std::string>& a_flags = {}) {
+    *a = start_server(a_flags);
     ASSERT_TRUE((*a)->started()) << "server A\n" << all_logs();
     *b = start_server();
     ASSERT_TRUE((*b)->started()) << "server B\n" << all_logs();
@@ -343,6 +344,13 @@ TEST_F(RedisEndToEndTest, RedisKeepsItsDataThroughSigkill) {
   EXPECT_EQ(state->str, "queued");
 }
 
+// One sample of the /metrics page of a process that printed where it serves
+// them; -1 when it cannot be read.
+double scrape(const std::string& log, const std::string& name) {
+  const int port = testing::metrics_port(log);
+  return port ? testing::sample(testing::http_get(port, "/metrics"), name) : -1;
+}
+
 // Two server replicas, three worker processes, 30 jobs from six clients
 // (four threads on the stubs, two running `vpremesh submit`) spread over both
 // replicas: every job completes once, every result is the oracle's file byte
@@ -351,9 +359,15 @@ TEST_F(RedisEndToEndTest, ThirtyJobsOverTwoReplicasAndThreeWorkers) {
   std::vector<Input> inputs = small_inputs();
   ASSERT_FALSE(HasFatalFailure());
   ServerProcess *a = nullptr, *b = nullptr;
-  ASSERT_NO_FATAL_FAILURE(start_replicas(&a, &b));
+  const std::vector<std::string> kMetricsFlags = {"--metrics-listen", "127.0.0.1:0"};
+  ASSERT_NO_FATAL_FAILURE(start_replicas(&a, &b, kMetricsFlags));
   const std::vector<std::string> replicas = {a->address(), b->address()};
-  for (int i = 0; i < 3; ++i) ASSERT_READY(start_worker());
+  for (int i = 0; i < 3; ++i) ASSERT_READY(start_worker(i == 0 ? kMetricsFlags : std::vector<std::string>{}));
+  // A replica runs no worker, yet counts every worker process's thread.
+  EXPECT_TRUE(wait_until([&] { return scrape(a->log(), "vpremesh_queue_workers") == 3; }, std::chrono::seconds(10)))
+      << scrape(a->log(), "vpremesh_queue_workers") << "\n" << a->log();
+  EXPECT_EQ(scrape(a->log(), "vpremesh_workers"), 0);
+  EXPECT_EQ(scrape(workers_[0]->log(), "vpremesh_workers"), 1) << workers_[0]->log();  // its liveness probe
   std::set<pid_t> worker_pids;
   for (const auto& w : workers_) worker_pids.insert(w->pid());
 
@@ -443,8 +457,14 @@ TEST_F(RedisEndToEndTest, ThirtyJobsOverTwoReplicasAndThreeWorkers) {
   EXPECT_GE(jobs_per_worker.size(), 2u) << "every job ran on one worker process";
   EXPECT_EQ(jobs_per_server.size(), 2u);
 
-  // Idle workers stop at once on SIGTERM, with exit code 0.
+  // Idle workers stop at once on SIGTERM, with exit code 0, and leave the
+  // count at once.
+  EXPECT_EQ(scrape(a->log(), "vpremesh_queue_busy_workers"), 0);
+  // The first worker's own count (absent until its first job).
+  const double succeeded = scrape(workers_[0]->log(), "vpremesh_jobs_finished_total{state=\"succeeded\"}");
+  EXPECT_EQ(std::max(succeeded, 0.0), jobs_per_worker[workers_[0]->pid()]);
   for (auto& w : workers_) EXPECT_EQ(w->terminate(), 0) << w->log();
+  EXPECT_EQ(scrape(a->log(), "vpremesh_queue_workers"), 0);
 
   std::string spread;
   for (const auto& [pid, n] : jobs_per_worker) spread += " " + std::to_string(n);

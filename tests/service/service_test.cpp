@@ -13,6 +13,7 @@
 
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "grpc/reflection/v1alpha/reflection.grpc.pb.h"
+#include "http_get.h"
 #include "service_harness.h"
 #include "test_meshes.h"
 
@@ -53,7 +54,7 @@ class ServiceTest : public ::testing::Test {
 // the same vertices at the same positions. status, watch and cancel then
 // answer for the finished job.
 TEST_F(ServiceTest, SubmitEqualsLocalAndJobCommandsAnswer) {
-  START_SERVER(server);
+  START_SERVER(server, {"--metrics-listen", "127.0.0.1:0"});
   const std::string model = "../shared/models/spot.obj";
   CliRun local = run_cli("local " + model + " -o " + path("local.drc") + " -n 800 --seed 7 --json --field-out " +
                          path("local_field.ply"));
@@ -126,6 +127,18 @@ TEST_F(ServiceTest, SubmitEqualsLocalAndJobCommandsAnswer) {
   CliRun unknown = run_cli("status no-such-job" + at);
   EXPECT_EQ(unknown.code, 7) << unknown.err;
   EXPECT_NE(unknown.err.find("vpremesh: NOT_FOUND: "), std::string::npos) << unknown.err;
+
+  // The process that ran the job answers /metrics (and keeps serving) with
+  // what it did.
+  const int port = testing::metrics_port(server->log());
+  ASSERT_GT(port, 0) << server->log();
+  const std::string page = testing::http_get(port, "/metrics");
+  EXPECT_EQ(page.rfind("HTTP/1.1 200 OK\r\n", 0), 0u) << page;
+  EXPECT_EQ(testing::sample(page, "vpremesh_jobs_submitted_total"), 1) << page;
+  EXPECT_EQ(testing::sample(page, "vpremesh_jobs_finished_total{state=\"succeeded\"}"), 1) << page;
+  EXPECT_GE(testing::sample(page, "vpremesh_workers"), 1) << page;
+  EXPECT_NE(testing::http_get(port, "/metrics").find("vpremesh_queue_length 0\n"), std::string::npos);
+  EXPECT_EQ(run_cli("status " + job + at).code, 0) << server->log();
 }
 
 // Sixteen jobs at once, each with its own target: every one completes, with
