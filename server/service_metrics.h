@@ -15,11 +15,6 @@ struct ServiceMetrics {
   Gauge& queue_length = registry.gauge("vpremesh_queue_length", "Jobs waiting for a worker");
   Gauge& busy_workers = registry.gauge("vpremesh_busy_workers", "Workers running a job");
   Gauge& live_workers = registry.gauge("vpremesh_workers", "Workers able to run jobs (renderer created)");
-  // Shared queue only: every host's worker threads, as registered in Redis.
-  Gauge& fleet_workers =
-      registry.gauge("vpremesh_queue_workers", "Worker threads on any host taking jobs from the shared queue");
-  Gauge& fleet_busy =
-      registry.gauge("vpremesh_queue_busy_workers", "Worker threads on any host running a job from the shared queue");
   Counter& submitted = registry.counter("vpremesh_jobs_submitted_total", "Jobs accepted into the queue");
   Counter& bytes_in = registry.counter("vpremesh_received_bytes_total", "Mesh bytes uploaded by clients");
   Counter& bytes_out =
@@ -47,8 +42,14 @@ struct ServiceMetrics {
     jobs(v1::JOB_STATE_SUCCEEDED).set(double(s.succeeded));
     jobs(v1::JOB_STATE_FAILED).set(double(s.failed));
     jobs(v1::JOB_STATE_CANCELLED).set(double(s.cancelled));
-    if (s.fleet_workers) fleet_workers.set(double(*s.fleet_workers));
-    if (s.fleet_busy) fleet_busy.set(double(*s.fleet_busy));
+    // Only a shared queue (Redis) knows every host's worker threads; with the
+    // embedded one the families are absent rather than a misleading 0.
+    if (s.fleet_workers)
+      registry.gauge("vpremesh_queue_workers", "Worker threads on any host taking jobs from the shared queue")
+          .set(double(*s.fleet_workers));
+    if (s.fleet_busy)
+      registry.gauge("vpremesh_queue_busy_workers", "Worker threads on any host running a job from the shared queue")
+          .set(double(*s.fleet_busy));
   }
 
   inline static const std::vector<double> kBuckets = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1,

@@ -138,6 +138,7 @@ TEST_F(ServiceTest, SubmitEqualsLocalAndJobCommandsAnswer) {
   EXPECT_EQ(testing::sample(page, "vpremesh_jobs_finished_total{state=\"succeeded\"}"), 1) << page;
   EXPECT_GE(testing::sample(page, "vpremesh_workers"), 1) << page;
   EXPECT_NE(testing::http_get(port, "/metrics").find("vpremesh_queue_length 0\n"), std::string::npos);
+  EXPECT_EQ(page.find("vpremesh_queue_workers"), std::string::npos) << "the embedded queue knows no fleet";
   EXPECT_EQ(run_cli("status " + job + at).code, 0) << server->log();
 }
 
