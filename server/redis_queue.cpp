@@ -323,11 +323,18 @@ void RedisQueue::unsubscribe(const std::string& job_id, uint64_t token) {
 // subscribe and its first read still wakes it. The XREAD also follows this
 // process's wake stream, which subscribe() writes to, so a new job's stream
 // joins the read at once.
+//
+// The XREAD takes one entry per stream (COUNT 1): it only needs to learn that
+// a stream grew. The watcher then moves past every event there is (event N
+// is entry 0-(N+1), so the job's event count is the last id) before it wakes
+// the listeners, who read the events themselves: each event leaves Redis
+// once per listener instead of once more for the watcher (a 16 MiB result
+// cost 2.00x its size in Redis output, now 1.06x; the unit test measures it).
 void RedisQueue::watch_loop() {
   int attempt = 0;
   std::string wake_last = "0-0";
   while (!stopping_) {
-    std::vector<std::string> args = {"XREAD", "COUNT", "1000", "BLOCK", "500", "STREAMS", wake_key_};
+    std::vector<std::string> args = {"XREAD", "COUNT", "1", "BLOCK", "500", "STREAMS", wake_key_};
     std::vector<std::string> ids = {wake_last};
     {
       std::unique_lock<std::mutex> lock(watch_mu_);
@@ -346,6 +353,8 @@ void RedisQueue::watch_loop() {
       continue;
     }
     attempt = 0;
+    std::vector<std::pair<std::string, uint64_t>> grown;  // job, the entry read
+    std::vector<std::string> job_keys;
     for (size_t i = 0; i < array_size(r->get()); ++i) {
       const redisReply* stream = element(r->get(), i);
       const std::string stream_key = as_string(element(stream, 0));
@@ -356,18 +365,24 @@ void RedisQueue::watch_loop() {
         wake_last = last;
         continue;
       }
-      const std::string job_id = stream_key.substr(key("events:", "").size());
+      grown.emplace_back(stream_key.substr(key("events:", "").size()), entry_number(last));
+      job_keys.push_back(key("job:", grown.back().first));
+    }
+    if (grown.empty()) continue;
+    auto counts = run(lua::kEventCounts, job_keys, {});
+    for (size_t i = 0; i < grown.size(); ++i) {
+      const auto& [job_id, read] = grown[i];
+      // Without the counts (Redis just failed), step one entry at a time.
+      const uint64_t last = std::max<uint64_t>(read, counts.ok() ? uint64_t(as_int(element(counts->get(), i))) : 0);
       std::vector<std::shared_ptr<Slot>> slots;
       {
         std::lock_guard<std::mutex> lock(watch_mu_);
         auto it = watched_.find(job_id);
         if (it == watched_.end()) continue;
-        it->second.last_id = last;
+        it->second.last_id = "0-" + std::to_string(last);
         for (auto& [token, slot] : it->second.slots) slots.push_back(slot);
       }
-      for (const auto& slot : slots) {
-        slot->call();
-      }
+      for (const auto& slot : slots) slot->call();
     }
   }
 }

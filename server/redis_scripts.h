@@ -228,6 +228,13 @@ local now = redis_ms()
 return {redis.call('ZCOUNT', KEYS[1], now, '+inf'), redis.call('ZCOUNT', KEYS[2], now, '+inf')}
 )lua";
 
+// KEYS: job hashes. Returns each job's event count (0 for a job gone).
+inline constexpr const char* kEventCounts = R"lua(
+local n = {}
+for i = 1, #KEYS do n[i] = tonumber(redis.call('HGET', KEYS[i], 'nevents') or '0') end
+return n
+)lua";
+
 // KEYS: job streams to count. ARGV: group.
 // Returns {waiting, pending (running or awaiting reclaim)}.
 inline constexpr const char* kCount = R"lua(

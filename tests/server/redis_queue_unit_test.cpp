@@ -408,6 +408,56 @@ TEST_F(RedisQueueTest, SubscribersAreWokenByEventsFromAnotherProcess) {
   EXPECT_EQ(server.subscribe("j-nope", [] {}).status().code(), StatusCode::kNotFound);
 }
 
+// A Watch reads each event out of Redis once: the watcher's blocking read
+// only learns that a stream grew, and the listener reads the events. Measured
+// as Redis's own output bytes while one listener follows a 16 MiB result.
+TEST_F(RedisQueueTest, AWatchReadsEachEventOutOfRedisOnce) {
+  RedisQueue server(options()), worker(options());
+  const std::string id = server.submit(job()).value();
+  RedisClient redis(options().endpoint);
+  auto output_bytes = [&] {
+    auto info = redis.command({"INFO", "stats"});
+    const std::string text = info.ok() ? as_string(info->get()) : "";
+    const std::string key = "total_net_output_bytes:";
+    const size_t at = text.find(key);
+    return at == std::string::npos ? uint64_t(0) : std::stoull(text.substr(at + key.size()));
+  };
+  std::mutex mu;
+  std::condition_variable cv;
+  uint64_t next = 0, read_bytes = 0;
+  bool ended = false;
+  auto token = server.subscribe(id, [&] {
+    std::lock_guard<std::mutex> lock(mu);
+    while (!ended) {  // what the service does on a wake: read everything new
+      auto batch = server.events(id, next, 64);
+      if (!batch.ok() || batch->events.empty()) break;
+      for (const auto& e : batch->events) read_bytes += e.result().data().size();
+      next += batch->events.size();
+      ended = batch->ended;
+    }
+    cv.notify_all();
+  });
+  ASSERT_TRUE(token.ok());
+  ASSERT_TRUE(worker.claim("w"));
+  constexpr size_t kChunk = 1 << 20, kChunks = 16;
+  const uint64_t before = output_bytes();
+  for (size_t i = 0; i < kChunks; ++i) {
+    v1::JobEvent e;
+    e.mutable_result()->set_data(std::string(kChunk, char('a' + i)));
+    worker.publish(id, e);  // held until `completed`, then written at once
+  }
+  worker.publish(id, completed());
+  {
+    std::unique_lock<std::mutex> lock(mu);
+    ASSERT_TRUE(cv.wait_for(lock, 30s, [&] { return ended; }));
+  }
+  server.unsubscribe(id, *token);
+  const double ratio = double(output_bytes() - before) / double(kChunk * kChunks);
+  EXPECT_EQ(read_bytes, kChunk * kChunks);
+  EXPECT_LT(ratio, 1.25) << "Redis sent " << ratio << "x the result for one watcher";
+  std::printf("[watch] Redis output for one watcher of a %zu MiB result: %.2fx the result\n", kChunks, ratio);
+}
+
 TEST_F(RedisQueueTest, RedisDownIsUnavailableAndQueuedJobsSurviveItsRestart) {
   RedisQueue server(options());
   const std::string id = server.submit(job()).value();
