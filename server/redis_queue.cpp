@@ -430,11 +430,13 @@ void RedisQueue::wait_for_work(const std::string& last_id) {
 std::optional<ClaimedJob> RedisQueue::claim(const std::string& worker) {
   const std::string visibility = std::to_string(options_.visibility_timeout.count());
   const std::string max_deliveries = std::to_string(options_.max_deliveries);
+  bool added = false;
   {
     std::lock_guard<std::mutex> lock(held_mu_);
-    consumers_.insert(worker);
+    added = consumers_.insert(worker).second;
   }
-  start_heartbeats();  // also registers the worker (renew_registration)
+  start_heartbeats();
+  if (added) renew_registration();  // in the registry before the first claim
   std::vector<std::string> claim_keys = {doorbell_key_};
   claim_keys.insert(claim_keys.end(), streams_.begin(), streams_.end());
   int attempt = 0;
@@ -474,6 +476,7 @@ std::optional<ClaimedJob> RedisQueue::claim(const std::string& worker) {
       std::lock_guard<std::mutex> lock(held_mu_);
       held_[id] = Held{token, worker, {}, 0, false};
     }
+    renew_registration();  // busy in the registry now, not at the next heartbeat
     auto upload = blobs_->get(key("upload:", id));
     if (upload.ok() && !upload->has_value()) {
       v1::JobEvent e;
@@ -588,8 +591,11 @@ void RedisQueue::publish(const std::string& job_id, v1::JobEvent event) {
     events.push_back(serialize(event));
     const bool written = finish(job_id, token, state, events, "", consumer);
     if (written) spdlog::info("job {} {} on {}", job_id, state_name(state), consumer);
-    std::lock_guard<std::mutex> lock(held_mu_);
-    held_.erase(job_id);
+    {
+      std::lock_guard<std::mutex> lock(held_mu_);
+      held_.erase(job_id);
+    }
+    renew_registration();  // idle in the registry now, not at the next heartbeat
     return;
   }
   const std::string stage = event.has_stage() ? event.stage().name() : "";

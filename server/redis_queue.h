@@ -96,7 +96,9 @@ class RedisQueue final : public JobQueue {
   void watch_loop();
   void heartbeat_loop();
   // Renews this process's consumers in the worker registry and removes
-  // killed workers' consumers from the group (lua::kAlive).
+  // killed workers' consumers from the group (lua::kAlive). Called every
+  // heartbeat, and when a consumer first claims or a job starts or ends, so
+  // the busy count is current.
   void renew_registration();
   void start_heartbeats();
 

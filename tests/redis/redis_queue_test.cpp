@@ -459,7 +459,9 @@ TEST_F(RedisEndToEndTest, ThirtyJobsOverTwoReplicasAndThreeWorkers) {
 
   // Idle workers stop at once on SIGTERM, with exit code 0, and leave the
   // count at once.
-  EXPECT_EQ(scrape(a->log(), "vpremesh_queue_busy_workers"), 0);
+  // A worker marks itself idle just after its `completed` is written.
+  EXPECT_TRUE(wait_until([&] { return scrape(a->log(), "vpremesh_queue_busy_workers") == 0; },
+                         std::chrono::seconds(5)));
   // The first worker's own count (absent until its first job).
   const double succeeded = scrape(workers_[0]->log(), "vpremesh_jobs_finished_total{state=\"succeeded\"}");
   EXPECT_EQ(std::max(succeeded, 0.0), jobs_per_worker[workers_[0]->pid()]);

@@ -280,23 +280,24 @@ bool eventually(const std::function<bool()>& done, std::chrono::milliseconds lim
   return true;
 }
 
-// Worker threads register with every heartbeat, so a server replica that
-// runs no worker still counts the fleet (vpremesh_queue_workers) and the busy
-// ones; a worker that exits cleanly leaves the count at once.
+// Worker threads register when they first claim and with every heartbeat,
+// so a server replica that runs no worker still counts the fleet
+// (vpremesh_queue_workers) and the busy ones. Starting and ending a job
+// changes the busy count at once, not at the next heartbeat (10 s here); a
+// worker that exits cleanly leaves the count at once.
 TEST_F(RedisQueueTest, ServersCountEveryHostsWorkersAndTheBusyOnes) {
   RedisQueueOptions o = options();
-  o.visibility_timeout = 1000ms;
-  o.heartbeat = 100ms;
   RedisQueue server(o);
   EXPECT_EQ(server.stats().fleet_workers, std::optional<size_t>(0));
   auto worker = std::make_unique<RedisQueue>(o);
   const std::string id = server.submit(job()).value();
-  ASSERT_TRUE(worker->claim("host-a/worker-0"));
-  auto idle = std::async(std::launch::async, [&] { return worker->claim("host-a/worker-1"); });
   auto fleet = [&](size_t live, size_t busy) {
     const QueueStats s = server.stats();
     return s.fleet_workers == live && s.fleet_busy == busy;
   };
+  ASSERT_TRUE(worker->claim("host-a/worker-0"));
+  EXPECT_TRUE(fleet(1, 1)) << server.stats().fleet_workers.value_or(99) << " " << server.stats().fleet_busy.value_or(99);
+  auto idle = std::async(std::launch::async, [&] { return worker->claim("host-a/worker-1"); });
   EXPECT_TRUE(eventually([&] { return fleet(2, 1); })) << server.stats().fleet_workers.value_or(99);
 
   MetricsRegistry registry;
@@ -307,7 +308,7 @@ TEST_F(RedisQueueTest, ServersCountEveryHostsWorkersAndTheBusyOnes) {
   EXPECT_NE(text.find("\nvpremesh_queue_busy_workers 1\n"), std::string::npos) << text;
 
   worker->publish(id, completed());
-  EXPECT_TRUE(eventually([&] { return fleet(2, 0); }));
+  EXPECT_TRUE(fleet(2, 0));
   worker->close();
   EXPECT_FALSE(idle.get());
   worker.reset();
