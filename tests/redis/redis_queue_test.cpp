@@ -671,6 +671,73 @@ TEST_F(RedisEndToEndTest, QueuedJobsSurviveARedisRestart) {
       kJobs, noticed, redis_ready, serving, kJobs, drained);
 }
 
+// Redis dies (SIGKILL) while a worker runs a job and another waits for
+// work, and comes back (AOF) a few seconds later. The running worker keeps
+// working (its stage events are lost, its heartbeats fail) and retries its
+// final write with backoff; the idle worker retries its claim with backoff.
+// The job ends once, on its first delivery, with the oracle's result, and
+// `vpremesh watch` (started before the outage) writes it. The idle worker
+// reconnects, and a job submitted after the restart completes.
+TEST_F(RedisEndToEndTest, WorkersRideOutARedisRestartMidJob) {
+  const Input long_job = long_input();
+  std::vector<Input> inputs = small_inputs();
+  ASSERT_FALSE(HasFatalFailure());
+  ServerProcess* server = start_server();
+  ASSERT_STARTED(server, "server");
+  ASSERT_READY(start_worker({"--heartbeat", "0.5"}));
+  ASSERT_READY(start_worker({"--heartbeat", "0.5"}));
+  auto stub = make_stub(server->address());
+
+  std::string id;
+  ASSERT_TRUE(submit_job(*stub, long_job.spec(), long_job.draco, &id).ok()) << all_logs();
+  ChildProcess* watch = start_client({"watch", id, "-o", path("watched.drc"), "--server", server->address()});
+  ASSERT_TRUE(watch->wait_for_text(": started on", kJobLimit)) << all_logs();
+  const v1::JobStatus running = get_job(*stub, id);
+  ASSERT_EQ(running.state(), v1::JOB_STATE_RUNNING) << "the job ended before Redis died";
+  const pid_t busy_pid = worker_pid(running.worker());
+
+  redis_->kill();
+  const auto down_at = Clock::now();
+  // Longer than the job's remaining run on two idle cores: its worker most
+  // likely finishes while Redis is away and must retry the final write.
+  std::this_thread::sleep_for(std::chrono::seconds(4));
+  ASSERT_TRUE(redis_->start()) << redis_->log();
+  const double outage = seconds_since(down_at);
+  const auto back_at = Clock::now();
+
+  EXPECT_EQ(watch->wait(kJobLimit), 0) << all_logs();
+  const double watched = seconds_since(back_at);
+  EXPECT_TRUE(read_file(path("watched.drc")) == long_job.expected) << all_logs();
+  const History h = watch_job(*stub, id);
+  ASSERT_TRUE(h.status.ok()) << h.describe() << "\n" << all_logs();
+  EXPECT_EQ(h.started(), 1) << "delivered again after the restart: " << h.describe();
+  EXPECT_EQ(h.completed(), 1) << h.describe();
+  EXPECT_TRUE(h.result_chunks_once()) << h.describe();
+  EXPECT_TRUE(h.result == long_job.expected);
+  EXPECT_TRUE(h.sequences_from(0)) << h.describe();
+  EXPECT_EQ(get_job(*stub, id).state(), v1::JOB_STATE_SUCCEEDED);
+
+  // The idle worker backed off while Redis was away and claims again
+  // (its backoff is at most 5 s).
+  WorkerProcess* idle = nullptr;
+  for (const auto& w : workers_)
+    if (w->pid() != busy_pid) idle = w.get();
+  ASSERT_NE(idle, nullptr) << "started on pid " << busy_pid << ", not one of our workers\n" << all_logs();
+  EXPECT_NE(idle->log().find("retrying in"), std::string::npos) << "no backoff logged\n" << idle->log();
+  EXPECT_TRUE(wait_until([&] { return idle->log().find("is reachable again") != std::string::npos; },
+                         std::chrono::seconds(30)))
+      << idle->log();
+  for (const auto& w : workers_) EXPECT_TRUE(w->running()) << "worker " << w->pid() << " exited\n" << w->log();
+  const History next = remesh_job(*stub, inputs[0]);
+  ASSERT_TRUE(next.status.ok()) << next.describe() << "\n" << all_logs();
+  EXPECT_TRUE(next.result == inputs[0].expected);
+  EXPECT_EQ(next.started(), 1) << next.describe();
+  std::printf(
+      "[scaling] Redis SIGKILL for %.1f s with a job running and a worker idle: the job completed once, on its "
+      "first delivery, and the watching client had the result %.2f s after Redis was back\n",
+      outage, watched);
+}
+
 // A replica dies (SIGKILL) while `vpremesh submit` and `vpremesh watch`,
 // both given --server A,B, follow a running job through it: both re-attach
 // on B, write the oracle's result and exit 0.
