@@ -365,7 +365,8 @@ TEST_F(RedisEndToEndTest, ThirtyJobsOverTwoReplicasAndThreeWorkers) {
   for (int i = 0; i < 3; ++i) ASSERT_READY(start_worker(i == 0 ? kMetricsFlags : std::vector<std::string>{}));
   // A replica runs no worker, yet counts every worker process's thread.
   EXPECT_TRUE(wait_until([&] { return scrape(a->log(), "vpremesh_queue_workers") == 3; }, std::chrono::seconds(10)))
-      << scrape(a->log(), "vpremesh_queue_workers") << "\n" << a->log();
+      << scrape(a->log(), "vpremesh_queue_workers") << "\n"
+      << a->log();
   EXPECT_EQ(scrape(a->log(), "vpremesh_workers"), 0);
   EXPECT_EQ(scrape(workers_[0]->log(), "vpremesh_workers"), 1) << workers_[0]->log();  // its liveness probe
   std::set<pid_t> worker_pids;
@@ -460,8 +461,8 @@ TEST_F(RedisEndToEndTest, ThirtyJobsOverTwoReplicasAndThreeWorkers) {
   // Idle workers stop at once on SIGTERM, with exit code 0, and leave the
   // count at once.
   // A worker marks itself idle just after its `completed` is written.
-  EXPECT_TRUE(wait_until([&] { return scrape(a->log(), "vpremesh_queue_busy_workers") == 0; },
-                         std::chrono::seconds(5)));
+  EXPECT_TRUE(
+      wait_until([&] { return scrape(a->log(), "vpremesh_queue_busy_workers") == 0; }, std::chrono::seconds(5)));
   // The first worker's own count (absent until its first job).
   const double succeeded = scrape(workers_[0]->log(), "vpremesh_jobs_finished_total{state=\"succeeded\"}");
   EXPECT_EQ(std::max(succeeded, 0.0), jobs_per_worker[workers_[0]->pid()]);
@@ -724,8 +725,8 @@ TEST_F(RedisEndToEndTest, WorkersRideOutARedisRestartMidJob) {
     if (w->pid() != busy_pid) idle = w.get();
   ASSERT_NE(idle, nullptr) << "started on pid " << busy_pid << ", not one of our workers\n" << all_logs();
   EXPECT_NE(idle->log().find("retrying in"), std::string::npos) << "no backoff logged\n" << idle->log();
-  EXPECT_TRUE(wait_until([&] { return idle->log().find("is reachable again") != std::string::npos; },
-                         std::chrono::seconds(30)))
+  EXPECT_TRUE(
+      wait_until([&] { return idle->log().find("is reachable again") != std::string::npos; }, std::chrono::seconds(30)))
       << idle->log();
   for (const auto& w : workers_) EXPECT_TRUE(w->running()) << "worker " << w->pid() << " exited\n" << w->log();
   const History next = remesh_job(*stub, inputs[0]);
@@ -827,8 +828,7 @@ TEST_F(RedisEndToEndTest, PoisonJobEndsInTheDeadLetterStream) {
     return gone;
   };
   wait_until([&] {
-    for (size_t gone = reap(); gone > 0 && !restart_failed; --gone)
-      restart_failed = !start_worker(flags, env)->ready();
+    for (size_t gone = reap(); gone > 0 && !restart_failed; --gone) restart_failed = !start_worker(flags, env)->ready();
     return both_ended() || restart_failed || exit_codes.size() > 4 * kMaxDeliveries;
   });
   ASSERT_FALSE(restart_failed) << all_logs();
