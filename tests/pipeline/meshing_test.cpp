@@ -296,6 +296,71 @@ TEST(RepairSoupTest, FillsSmallHolesOnlyAndDropsUnusedPoints) {
   EXPECT_EQ(inward_faces(mesh), 0u);
 }
 
+// A closed UV sphere (radius 1) as a soup: `rings` latitude rings of
+// `segments` points between two poles, faces counter-clockwise from outside.
+void append_uv_sphere(double cx, size_t segments, size_t rings, std::vector<float>* points,
+                      std::vector<uint32_t>* faces) {
+  const uint32_t base = uint32_t(points->size() / 3);
+  auto add = [&](double x, double y, double z) { points->insert(points->end(), {float(cx + x), float(y), float(z)}); };
+  add(0, 0, 1);  // north pole: base
+  for (size_t r = 0; r < rings; ++r) {
+    const double theta = kPi * double(r + 1) / double(rings + 1);
+    for (size_t s = 0; s < segments; ++s) {
+      const double phi = 2 * kPi * double(s) / double(segments);
+      add(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+    }
+  }
+  add(0, 0, -1);  // south pole
+  const uint32_t south = base + 1 + uint32_t(rings * segments);
+  auto ring = [&](size_t r, size_t s) { return base + 1 + uint32_t(r * segments + s % segments); };
+  for (size_t s = 0; s < segments; ++s) faces->insert(faces->end(), {base, ring(0, s), ring(0, s + 1)});
+  for (size_t r = 0; r + 1 < rings; ++r)
+    for (size_t s = 0; s < segments; ++s) {
+      faces->insert(faces->end(), {ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)});
+      faces->insert(faces->end(), {ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)});
+    }
+  for (size_t s = 0; s < segments; ++s) faces->insert(faces->end(), {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
+}
+
+// Regression (heap overflow seen on real models): removing the long "bridge"
+// faces leaves removed halfedges inside the mesh, so the halfedge indices of
+// the parts after them run past number_of_halfedges(). The hole of the last
+// part must still be found and filled, and nothing may be written out of
+// bounds (the sanitizer build runs this test).
+TEST(RepairSoupTest, FillsHolesAfterBridgesAreRemoved) {
+  std::vector<float> points;
+  std::vector<uint32_t> faces;
+  append_uv_sphere(0, 12, 8, &points, &faces);
+  // Twenty isolated triangles with edges 100x the spheres': each is removed
+  // as a bridge, and with it its three edges.
+  for (int b = 0; b < 20; ++b) {
+    const uint32_t v = uint32_t(points.size() / 3);
+    const float x = 200.0f + 150.0f * float(b);
+    points.insert(points.end(), {x, 0, 0, x + 100, 0, 0, x, 100, 0});
+    faces.insert(faces.end(), {v, v + 1, v + 2});
+  }
+  std::vector<uint32_t> last;
+  append_uv_sphere(5, 12, 8, &points, &last);
+  last.erase(last.begin() + 3 * 40, last.begin() + 3 * 41);  // a 3-edge hole in the last part
+  faces.insert(faces.end(), last.begin(), last.end());
+
+  Mesh mesh;
+  MeshingStats stats;
+  ASSERT_TRUE(repair_triangle_soup(points.data(), points.size() / 3, faces.data(), faces.size() / 3, {}, &mesh,
+                                   nullptr, &stats)
+                  .ok());
+  const Topology t = analyze(mesh);
+  EXPECT_EQ(stats.bridges_removed, 20u);
+  EXPECT_EQ(stats.holes_filled, 1u);
+  EXPECT_EQ(stats.holes_left, 0u);
+  EXPECT_EQ(stats.points_dropped, 60u);
+  EXPECT_EQ(t.components, 2u);
+  EXPECT_EQ(t.boundary_edges, 0u);
+  EXPECT_EQ(t.non_manifold_edges, 0u);
+  EXPECT_EQ(t.euler(), 4);  // two spheres
+  EXPECT_EQ(t.faces, 2 * (2 * 12 * 8u));
+}
+
 TEST(RepairSoupTest, SplitsNonManifoldVertexAndEdge) {
   // Bowtie: two triangles meeting only at point 0.
   const std::vector<float> points = {0, 0, 0, 1, 0, 0, 1, 1, 0, -1, 0, 0.5f, -1, 1, 0.5f};

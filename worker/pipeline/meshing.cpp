@@ -72,10 +72,14 @@ bool spans_volume(const std::vector<Point>& p) {
   return false;
 }
 
+// Containers indexed by a Surface_mesh index (h.idx(), v.idx(), f.idx()) are
+// sized by the index range, num_halfedges() and the like, which counts the
+// elements removed since the last collect_garbage(); number_of_halfedges()
+// does not, and a mesh that had faces removed has indices past it.
 // Boundary cycles of the mesh: one border halfedge and the edge count of each.
 std::vector<std::pair<HalfedgeIndex, size_t>> boundary_cycles(const SurfaceMesh& sm) {
   std::vector<std::pair<HalfedgeIndex, size_t>> cycles;
-  std::vector<bool> seen(sm.number_of_halfedges(), false);
+  std::vector<bool> seen(sm.num_halfedges(), false);
   for (HalfedgeIndex h : sm.halfedges()) {
     if (!sm.is_border(h) || seen[h.idx()]) continue;
     size_t length = 0;
@@ -190,6 +194,7 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
   if (!bridges.empty()) split += PMP::duplicate_non_manifold_vertices(sm);
   size_t filled = 0, left = 0;
   for (const auto& [border, length] : boundary_cycles(sm)) {
+    if (!sm.is_border(border)) continue;  // each patch closes only its own cycle; be sure
     if (length > options.max_hole_edges) {
       ++left;
       continue;
@@ -231,9 +236,9 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
     source[v] = input_index.at({float(p.x()), float(p.y()), float(p.z())});
   }
 
-  // Flatten: after collect_garbage vertex v has index v.idx().
+  // Flatten: after collect_garbage vertex v has index v.idx() < num_vertices().
   Mesh mesh;
-  std::vector<uint32_t> sources(sm.number_of_vertices());
+  std::vector<uint32_t> sources(sm.num_vertices());
   std::vector<bool> used(n, false);
   mesh.positions.reserve(3 * sm.number_of_vertices());
   for (VertexIndex v : sm.vertices()) {
