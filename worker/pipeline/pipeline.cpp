@@ -42,6 +42,7 @@ class StageRunner {
   template <class Fn>
   Status run(const char* name, const std::string& device, Fn&& fn) {
     VPR_RETURN_IF_ERROR(check_cancelled(name));
+    begin(name);
     const auto start = Clock::now();
     Status status = fn();
     record(name, start, device, "");
@@ -57,6 +58,7 @@ class StageRunner {
   template <class Fn>
   Status run_twin(const char* name, const JobDevice& device, Fn&& fn, const std::string& cpu_note = "") {
     VPR_RETURN_IF_ERROR(check_cancelled(name));
+    begin(name);
     const auto start = Clock::now();
     const ExecContext cpu_ctx;
     if (!device.on_gpu()) {
@@ -82,6 +84,9 @@ class StageRunner {
     if (options_.keep_going && !options_.keep_going())
       return {StatusCode::kCancelled, std::string("job cancelled before stage ") + name};
     return Status::Ok();
+  }
+  void begin(const char* name) const {
+    if (options_.on_stage_begin) options_.on_stage_begin(name);
   }
   void record(const char* name, Clock::time_point start, const std::string& device, const std::string& note) {
     record_ms(name, ms_since(start), device, note);
@@ -221,6 +226,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
   Renderer* renderer = options.shared_renderer;
   std::vector<Snapshot> snapshots;
   {
+    stage.begin("render");
     const auto start = Clock::now();
     if (!renderer) {
       auto created = create_renderer(options.renderer);

@@ -65,6 +65,9 @@ struct PipelineOptions {
   // Called as each stage ends (from the pipeline's thread), e.g. to stream
   // progress; the StageTiming is final.
   std::function<void(const StageTiming&)> on_stage;
+  // Called as each stage starts, with its name (the service's job processes
+  // report the stage a crash happened in).
+  std::function<void(const char*)> on_stage_begin;
 };
 
 struct PipelineResult {
