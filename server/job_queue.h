@@ -18,6 +18,7 @@
 
 #include "pipeline/status.h"
 #include "server/job.h"
+#include "server/status_mapping.h"
 
 namespace vpr::service {
 
@@ -67,6 +68,17 @@ class JobQueue {
   // and wakes its subscribers. `started` marks the job running on
   // `started.worker`; completed / failed / cancelled end it.
   virtual void publish(const std::string& job_id, v1::JobEvent event) = 0;
+
+  // Ends a running job whose process died on it (server/job_process.h):
+  // its `failed` event with `why`, which names the signal and the stage. A
+  // shared queue also records the job in its dead-letter stream with `why`
+  // and does not deliver it again: the crash is the job's own, and the same
+  // input would crash the next worker.
+  virtual void fail_crashed(const std::string& job_id, const Status& why) {
+    v1::JobEvent e;
+    *e.mutable_failed() = to_failure(why);
+    publish(job_id, std::move(e));
+  }
 
   // Why a running job must stop (cancelled, deadline, shutdown), or nullopt.
   // The worker's PipelineOptions::keep_going asks this at stage boundaries.

@@ -14,9 +14,11 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 
 #include "server/embedded_queue.h"
+#include "server/job_process.h"
 #include "server/metrics_http.h"
 #include "server/process_main.h"
 #include "server/redis_queue.h"
@@ -87,6 +89,11 @@ int run(const ServerOptions& o) {
   wo.cuda_devices = policy == DevicePolicy::kCpu ? 0 : gpus;
   wo.gpu_job_bytes = o.gpu_job_mib << 20;
   wo.limits = o.limits;
+  wo.process = job_process_options(o.isolation, workers);
+  if (const char* label = std::getenv("VPREMESH_FAULT_CRASH_ON_LABEL"); label && *label) {
+    wo.crash_on_label = label;
+    spdlog::warn("fault injection: jobs labelled '{}' abort their process", label);
+  }
   WorkerPool pool(*queue, wo, &metrics);
   // On every return: wake the workers so the pool's destructor can join them.
   struct CloseOnExit {
@@ -216,6 +223,7 @@ int run(const ServerOptions& o) {
 }  // namespace vpr::service
 
 int main(int argc, char** argv) {
+  if (int fd = -1; vpr::service::is_job_process(argc, argv, &fd)) return vpr::service::job_process_main(fd);
   vpr::service::ServerOptions options;
   CLI::App app{"vpremesh-server: visual-perception-guided remeshing as a gRPC service"};
   vpr::service::add_server_options(app, &options);

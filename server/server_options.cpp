@@ -2,9 +2,39 @@
 
 #include "server/redis_client.h"
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <memory>
 
 namespace vpr::service {
+
+void add_isolation_options(CLI::App& app, JobIsolationOptions* o) {
+  app.add_option("--isolation", o->mode,
+                 "Where jobs run: process (each worker's jobs in a supervised child process, so a crash costs "
+                 "one job) or thread (in this process: no isolation, for debugging)")
+      ->check(CLI::IsMember({"process", "thread"}))
+      ->capture_default_str();
+  app.add_option("--job-memory-mib", o->memory_mib,
+                 "MiB one job process may hold (0: 3/4 of this machine's memory over the workers); past it the "
+                 "job fails RESOURCE_EXHAUSTED")
+      ->check(CLI::Range(size_t(0), size_t(1) << 30))
+      ->capture_default_str();
+  app.add_option("--job-cpu-seconds", o->cpu_seconds,
+                 "CPU seconds one job may use, all its threads together (0: unlimited); past it the job fails "
+                 "RESOURCE_EXHAUSTED")
+      ->check(CLI::Range(0.0, 1e7))
+      ->capture_default_str();
+}
+
+JobProcessOptions job_process_options(const JobIsolationOptions& o, int workers) {
+  JobProcessOptions p;
+  if (o.mode == "process") p.exe = "/proc/self/exe";  // this very binary, even if replaced on disk since
+  const size_t machine = size_t(sysconf(_SC_PHYS_PAGES)) * size_t(sysconf(_SC_PAGESIZE));
+  p.memory_bytes = o.memory_mib > 0 ? o.memory_mib << 20 : machine / 4 * 3 / size_t(std::max(workers, 1));
+  p.cpu_seconds = o.cpu_seconds;
+  return p;
+}
 
 void add_server_options(CLI::App& app, ServerOptions* o) {
   app.add_option("--listen", o->listen, "gRPC address HOST:PORT (port 0 picks a free one)")->capture_default_str();
@@ -64,6 +94,7 @@ void add_server_options(CLI::App& app, ServerOptions* o) {
   app.add_option("--max-jobs-per-client", o->limits.max_jobs_per_client, "Most unfinished jobs per client connection")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  add_isolation_options(app, &o->isolation);
 }
 
 namespace {

@@ -5,8 +5,24 @@
 #include <string>
 
 #include "server/limits.h"
+#include "server/worker_pool.h"
 
 namespace vpr::service {
+
+// How jobs are kept apart (server/job_process.h); vpremesh-server and
+// vpremesh-worker take the same flags.
+struct JobIsolationOptions {
+  std::string mode = "process";  // --isolation process|thread
+  size_t memory_mib = 0;         // --job-memory-mib; 0: 3/4 of the machine's memory over the workers
+  double cpu_seconds = 7200;     // --job-cpu-seconds per job, all threads together; 0: unlimited
+};
+
+void add_isolation_options(CLI::App& app, JobIsolationOptions* options);
+
+// The WorkerPool settings for `workers` workers on this machine: the binary
+// to start job processes from (this one) and their limits; exe empty with
+// --isolation thread.
+JobProcessOptions job_process_options(const JobIsolationOptions& options, int workers);
 
 struct ServerOptions {
   std::string listen = "0.0.0.0:50051";  // --listen; PORT 0 picks a free port (printed at startup)
@@ -21,6 +37,7 @@ struct ServerOptions {
   size_t gpu_job_mib = 0;                // --gpu-memory-per-job: device memory budget of one job (0: GPU / workers on it)
   std::string log_level = "info";        // --log-level
   ServerLimits limits;
+  JobIsolationOptions isolation;  // --isolation, --job-memory-mib, --job-cpu-seconds
 };
 
 // Registers every flag on `app`, writing into *options. The limit flags take

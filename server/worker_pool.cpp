@@ -12,6 +12,7 @@
 #include <new>
 
 #include "io/mesh_io.h"
+#include "server/job_process.h"
 #include "server/job_spec.h"
 #include "server/status_mapping.h"
 #ifdef VPR_HAVE_CUDA
@@ -130,6 +131,9 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
     e.mutable_started()->set_queue_ms(job.queue_ms);
     queue.publish(id, std::move(e));
   }
+  auto step = [&](const std::string& name) {
+    if (ctx.on_step) ctx.on_step(name);
+  };
   if (!ctx.crash_on_label.empty() && job.spec.label() == ctx.crash_on_label) {
     spdlog::critical("job {}: label '{}' matches VPREMESH_FAULT_CRASH_ON_LABEL: aborting (fault injection)", id,
                      job.spec.label());
@@ -151,6 +155,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
     po.device_budget = &budget;
   }
   po.keep_going = [&]() { return !stopped(); };
+  po.on_stage_begin = [&](const char* name) { step(name); };
   // Stage events go out live, as each stage ends.
   po.on_stage = [&](const StageTiming& t) {
     v1::JobEvent e;
@@ -177,6 +182,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
   {
     // The upload is freed as soon as it is decoded, the input mesh when the
     // pipeline returns.
+    step("decode");
     auto mesh = parse_mesh(job.mesh.data(), job.mesh.size(), MeshFormat::kDraco, ctx.limits.mesh_limits());
     job.mesh = {};
     job.mesh.shrink_to_fit();
@@ -194,6 +200,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
   if (job.spec.return_mesh()) {
     // The same encoder settings as `vpremesh local -o out.drc` (saliency as
     // the generic attribute "saliency"), so both give the same file.
+    step("encode");
     DracoOptions draco;
     draco.position_bits = options.result_quantization_bits;
     auto encoded = encode_draco(result.mesh, result.saliency.data(), draco);
@@ -211,6 +218,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
     }
     bytes_out += bytes.size();
   }
+  step("results");
   if (job.spec.return_saliency())
     bytes_out += publish_floats(queue, id, result.saliency, [](v1::JobEvent* e) { return e->mutable_saliency(); });
   if (job.spec.return_saliency_points())
@@ -240,12 +248,25 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
 
 }  // namespace
 
+void init_cuda(const WorkerContext& ctx) {
+#ifdef VPR_HAVE_CUDA
+  if (ctx.device_policy == DevicePolicy::kCpu || ctx.device.rfind("cuda:", 0) != 0) return;
+  if (Status s = init_cuda_device(ctx.cuda_device); !s.ok())
+    spdlog::warn("{}: cannot initialise {}: {}", ctx.name, ctx.device, s.message());
+#else
+  (void)ctx;
+#endif
+}
+
 void run_job(JobQueue& queue, ClaimedJob job, const WorkerContext& ctx) {
   const std::string id = job.id;
   try {
     run_job_or_throw(queue, job, ctx);
   } catch (const std::bad_alloc&) {
-    queue.publish(id, failed_event(resource_exhausted("out of memory while running the job")));
+    std::string limit;
+    if (ctx.memory_limit_bytes > 0)
+      limit = " (its process may hold " + std::to_string(ctx.memory_limit_bytes >> 20) + " MiB, --job-memory-mib)";
+    queue.publish(id, failed_event(resource_exhausted("out of memory while running the job" + limit)));
   } catch (const std::exception& e) {
     queue.publish(id, failed_event(internal_error(std::string("unexpected error: ") + e.what())));
   }
@@ -270,12 +291,13 @@ size_t WorkerPool::start(std::string* why) {
   return live_;
 }
 
-void WorkerPool::worker_main(int index) {
+WorkerContext WorkerPool::make_context(int index) {
   char host[256] = "localhost";
   gethostname(host, sizeof host - 1);
   WorkerContext ctx;
   ctx.name = std::string(host) + ":" + std::to_string(getpid()) + "/worker-" + std::to_string(index);
   ctx.device_policy = options_.device;
+  ctx.renderer_kind = options_.renderer;
   ctx.limits = options_.limits;
   ctx.metrics = metrics_;
   ctx.crash_on_label = options_.crash_on_label;
@@ -296,26 +318,51 @@ void WorkerPool::worker_main(int index) {
                               ? options_.gpu_job_bytes
                               : gpus[size_t(ctx.cuda_device)].total_memory / size_t(std::max(sharing, 1));
     }
-    if (Status s = init_cuda_device(ctx.cuda_device); !s.ok())
-      spdlog::warn("{}: cannot initialise {}: {}", ctx.name, ctx.device, s.message());
 #endif
   }
-  auto renderer = create_renderer(options_.renderer);
+  return ctx;
+}
+
+void WorkerPool::worker_main(int index) {
+  WorkerContext ctx = make_context(index);
+  const bool isolated = !options_.process.exe.empty();
+  std::unique_ptr<JobProcess> process;  // isolated: where the jobs run
+  std::unique_ptr<Renderer> renderer;   // otherwise: this thread's own
+  Status ready;
+  std::string description;
+  if (isolated) {
+    auto started = JobProcess::start(options_.process, ctx);
+    if (started.ok()) {
+      process = std::move(started).value();
+      description = process->renderer_description() + ", jobs in process " + std::to_string(process->pid());
+    } else {
+      ready = started.status();
+    }
+  } else {
+    init_cuda(ctx);
+    auto created = create_renderer(options_.renderer);
+    if (created.ok()) {
+      renderer = std::move(created).value();
+      ctx.renderer = renderer.get();
+      description = ctx.renderer->description();
+    } else {
+      ready = created.status();
+    }
+  }
   {
     std::lock_guard<std::mutex> lock(mu_);
-    if (renderer.ok()) {
-      ctx.renderer = renderer->get();
+    if (ready.ok()) {
       ++live_;
-      spdlog::info("{} ready: device {}, renderer {}", ctx.name, ctx.device, ctx.renderer->description());
+      spdlog::info("{} ready: device {}, renderer {}", ctx.name, ctx.device, description);
     } else {
-      failures_.push_back(ctx.name + ": " + renderer.status().message());
-      spdlog::error("{} cannot create a renderer: {}", ctx.name, renderer.status().message());
+      failures_.push_back(ctx.name + ": " + ready.message());
+      spdlog::error("{} cannot create a renderer: {}", ctx.name, ready.message());
     }
     ++ready_;
     if (metrics_) metrics_->live_workers.set(double(live_));
   }
   changed_.notify_all();
-  if (!renderer.ok()) return;
+  if (!ready.ok()) return;
 
   while (std::optional<ClaimedJob> job = queue_.claim(ctx.name)) {
     {
@@ -324,7 +371,28 @@ void WorkerPool::worker_main(int index) {
       ++busy_;
       if (metrics_) metrics_->busy_workers.set(double(busy_));
     }
-    run_job(queue_, std::move(*job), ctx);
+    if (!isolated) {
+      run_job(queue_, std::move(*job), ctx);
+    } else {
+      if (process && !process->alive()) process.reset();  // killed while idle: this job never met it
+      if (!process) {  // start one (again) for this job
+        auto started = JobProcess::start(options_.process, ctx);
+        if (started.ok()) process = std::move(started).value();
+        else queue_.publish(job->id, failed_event(unavailable("no job process can run jobs on " + ctx.name + ": " +
+                                                              started.status().message())));
+      }
+      if (process && !process->run(queue_, std::move(*job), metrics_)) {
+        // The job has ended with the crash report; the next job gets a fresh process.
+        process.reset();
+        auto started = JobProcess::start(options_.process, ctx);
+        if (started.ok()) {
+          process = std::move(started).value();
+          spdlog::info("{}: job process replaced by process {}", ctx.name, process->pid());
+        } else {
+          spdlog::error("{}: cannot replace the job process: {}", ctx.name, started.status().message());
+        }
+      }
+    }
     {
       std::lock_guard<std::mutex> lock(mu_);
       running_[size_t(index)].clear();

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -21,10 +22,24 @@ namespace vpr::service {
 // Values per chunk of a FloatChunk event: 1 MiB of floats.
 inline constexpr size_t kFloatsPerChunk = kMaxChunkBytes / sizeof(float);
 
+// How a worker isolates its jobs (server/job_process.h).
+struct JobProcessOptions {
+  // The binary started with --job-process to run jobs (the server's or the
+  // worker's own: /proc/self/exe). Empty: jobs run in the worker thread
+  // itself, in this process (tests of the pool; --isolation thread).
+  std::string exe;
+  // Memory of one job process (--job-memory-mib; 0: unlimited). The largest
+  // job the default limits accept (--max-vertices 10M) peaks well below it.
+  size_t memory_bytes = size_t(32) << 30;
+  // CPU time of one job, all threads together (--job-cpu-seconds; 0: unlimited).
+  double cpu_seconds = 3600;
+};
+
 // What one worker runs a job with.
 struct WorkerContext {
   std::string name;            // "host:pid/worker-0"
   std::string device = "cpu";  // "cpu" or "cuda:0 <name>", for `started` events
+  RendererKind renderer_kind = RendererKind::kAuto;
   Renderer* renderer = nullptr;
   DevicePolicy device_policy = DevicePolicy::kCpu;
   int cuda_device = 0;
@@ -35,6 +50,10 @@ struct WorkerContext {
   ServerLimits limits;
   ServiceMetrics* metrics = nullptr;  // may be null
   std::string crash_on_label;         // fault injection for tests (WorkerPoolOptions)
+  size_t memory_limit_bytes = 0;      // the job process's memory limit, named when a job runs out
+  // Called as each step of a job starts: "decode", the pipeline's stages,
+  // "encode", "results" (a job process reports them to its supervisor).
+  std::function<void(const std::string&)> on_step;
 };
 
 // Runs one claimed job to its end: started, then decode, the pipeline with a
@@ -42,6 +61,9 @@ struct WorkerContext {
 // payloads in chunks, and completed / failed / cancelled. Never throws; every
 // failure becomes the job's `failed` event.
 void run_job(JobQueue& queue, ClaimedJob job, const WorkerContext& ctx);
+
+// Makes ctx's CUDA device current in this process (when ctx names one).
+void init_cuda(const WorkerContext& ctx);
 
 struct WorkerPoolOptions {
   int workers = 1;
@@ -57,6 +79,7 @@ struct WorkerPoolOptions {
   // abort() right after publishing `started` for a job with this label, as a
   // worker that crashes on some input would.
   std::string crash_on_label;
+  JobProcessOptions process;  // exe empty: jobs run in the worker threads
 };
 
 class WorkerPool {
@@ -78,6 +101,9 @@ class WorkerPool {
 
  private:
   void worker_main(int index);
+  // The worker's context, without its renderer and CUDA set-up (the job
+  // process, or worker_main itself without one, does those).
+  WorkerContext make_context(int index);
 
   JobQueue& queue_;
   WorkerPoolOptions options_;

@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "server/job_process.h"
 #include "server/metrics_http.h"
 #include "server/process_main.h"
 #include "server/redis_queue.h"
@@ -82,6 +83,7 @@ int run(const WorkerOptions& o) {
   wo.gpu_ids = gpu_ids;
   wo.gpu_job_bytes = o.gpu_job_mib << 20;
   wo.limits = o.limits;
+  wo.process = job_process_options(o.isolation, workers);
   if (const char* label = std::getenv("VPREMESH_FAULT_CRASH_ON_LABEL"); label && *label) {
     wo.crash_on_label = label;
     spdlog::warn("fault injection: jobs labelled '{}' abort this process", label);
@@ -133,6 +135,7 @@ int run(const WorkerOptions& o) {
 }  // namespace vpr::service
 
 int main(int argc, char** argv) {
+  if (int fd = -1; vpr::service::is_job_process(argc, argv, &fd)) return vpr::service::job_process_main(fd);
   vpr::service::WorkerOptions options;
   CLI::App app{"vpremesh-worker: runs remeshing jobs from a Redis Streams queue shared with vpremesh-server"};
   vpr::service::add_worker_options(app, &options);

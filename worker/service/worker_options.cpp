@@ -51,7 +51,7 @@ void add_worker_options(CLI::App& app, WorkerOptions* o) {
       ->capture_default_str();
   app.add_option("--log-level", o->log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
-      ->capture_default_str();
+      ->capture_default_str();  add_isolation_options(app, &o->isolation);
 }
 
 StatusOr<std::vector<int>> parse_gpu_list(const std::string& list) {

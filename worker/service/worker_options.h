@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "server/limits.h"
+#include "server/server_options.h"
 
 namespace vpr::service {
 
@@ -24,6 +25,7 @@ struct WorkerOptions {
   size_t gpu_job_mib = 0;            // --gpu-memory-per-job
   std::string log_level = "info";    // --log-level
   ServerLimits limits;               // --max-vertices, --max-faces (decode limits)
+  JobIsolationOptions isolation;     // --isolation, --job-memory-mib, --job-cpu-seconds
 };
 
 void add_worker_options(CLI::App& app, WorkerOptions* options);
