@@ -515,6 +515,30 @@ void RedisQueue::fail_dead(const std::string& job_id, const std::string& token, 
   finish(job_id, token, v1::JOB_STATE_FAILED, {serialize(e)}, reason, worker);
 }
 
+void RedisQueue::fail_crashed(const std::string& job_id, const Status& why) {
+  std::string token, consumer;
+  {
+    std::lock_guard<std::mutex> lock(held_mu_);
+    auto it = held_.find(job_id);
+    if (it == held_.end()) {
+      spdlog::warn("job {}: crash report for a job this process does not run, dropped", job_id);
+      return;
+    }
+    token = it->second.token;
+    consumer = it->second.consumer;
+  }
+  v1::JobEvent e;
+  *e.mutable_failed() = to_failure(why);
+  const std::string reason = why.message() + "; moved to the dead-letter stream " + dead_key_;
+  spdlog::error("job {}: {}", job_id, reason);
+  finish(job_id, token, v1::JOB_STATE_FAILED, {serialize(e)}, reason, consumer);
+  {
+    std::lock_guard<std::mutex> lock(held_mu_);
+    held_.erase(job_id);
+  }
+  renew_registration();  // idle in the registry now
+}
+
 bool RedisQueue::finish(const std::string& job_id, const std::string& token, v1::JobState state,
                         const std::vector<std::string>& events, const std::string& dead_reason,
                         const std::string& worker) {

@@ -50,6 +50,7 @@ class RedisQueue final : public JobQueue {
   StatusOr<std::string> submit(JobSubmission job) override;
   std::optional<ClaimedJob> claim(const std::string& worker) override;
   void publish(const std::string& job_id, v1::JobEvent event) override;
+  void fail_crashed(const std::string& job_id, const Status& why) override;
   std::optional<Status> cancellation(const std::string& job_id) override;
   StatusOr<v1::JobStatus> cancel(const std::string& job_id, const Status& reason) override;
   StatusOr<v1::JobStatus> status(const std::string& job_id) override;

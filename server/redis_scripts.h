@@ -107,7 +107,10 @@ local function take(stream, entry)
   end
   local d = redis.call('HINCRBY', job, 'deliveries', 1)
   redis.call('HSET', job, 'token', d, 'stream', stream, 'entry', entry[1])
-  if d > tonumber(ARGV[4]) then return {'dead', id, tostring(d), tostring(d - 1)} end
+  if d > tonumber(ARGV[4]) then
+    redis.call('HINCRBY', job, 'deliveries', -1)  -- not run again: 'deliveries' counts the runs
+    return {'dead', id, tostring(d), tostring(d - 1)}
+  end
   redis.call('HSET', job, 'state', 2, 'worker', ARGV[6], 'stage', 'starting')
   local f = redis.call('HMGET', job, 'spec', 'submitted_ms')
   return {'job', id, tostring(d), f[1], f[2]}
@@ -160,7 +163,7 @@ if f[1] ~= ARGV[1] or (f[2] ~= '1' and f[2] ~= '2') then return 0 end
 for i = 8, #ARGV do append(KEYS[1], KEYS[2], ARGV[i]) end
 close(KEYS[1], KEYS[2], KEYS[3], KEYS[4], KEYS[5], ARGV[2], ARGV[3], ARGV[4], f[3], f[4], f[5], f[6])
 if ARGV[5] ~= '' then
-  redis.call('XADD', KEYS[6], '*', 'job', ARGV[6], 'reason', ARGV[5], 'deliveries', tonumber(f[7]) - 1,
+  redis.call('XADD', KEYS[6], '*', 'job', ARGV[6], 'reason', ARGV[5], 'deliveries', f[7],
              'worker', ARGV[7])
 end
 return 1

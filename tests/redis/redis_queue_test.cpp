@@ -781,96 +781,71 @@ TEST_F(RedisEndToEndTest, ClientsReattachToTheOtherReplicaWhenOneDies) {
   EXPECT_EQ(h.completed(), 1) << h.describe();
 }
 
-// A job that crashes every worker that starts it (VPREMESH_FAULT_CRASH_ON_LABEL):
-// the test restarts the crashed workers until the job ends. After
-// --max-deliveries deliveries it lands in vpremesh:dead and fails with a
-// message naming the dead-letter stream and the deliveries; a normal job
-// submitted beside it completes with the oracle's result.
-TEST_F(RedisEndToEndTest, PoisonJobEndsInTheDeadLetterStream) {
+// A job that crashes its job process (VPREMESH_FAULT_CRASH_ON_LABEL: abort()
+// right after `started`) shares one worker (--concurrency 2) with a normal
+// job. The crash costs the poison job alone: it fails at its first delivery,
+// not retried, naming the signal and the stage, and lands in vpremesh:dead
+// with them; the worker process lives on with the same pid; the normal job
+// completes with the oracle's result and is never dead-lettered.
+TEST_F(RedisEndToEndTest, CrashingJobIsDeadLetteredAloneAndItsWorkerLivesOn) {
   std::vector<Input> inputs = small_inputs();
   ASSERT_FALSE(HasFatalFailure());
   ServerProcess* server = start_server();
   ASSERT_STARTED(server, "server");
-  constexpr int kMaxDeliveries = 2;
-  const std::vector<std::string> flags = {"--visibility-timeout",        "1", "--heartbeat", "0.25", "--max-deliveries",
-                                          std::to_string(kMaxDeliveries)};
-  const std::vector<std::string> env = {"VPREMESH_FAULT_CRASH_ON_LABEL=poison"};
-  constexpr int kWorkers = 2;
-  for (int i = 0; i < kWorkers; ++i) ASSERT_READY(start_worker(flags, env));
+  const std::vector<std::string> flags = {"--device", "cpu", "--concurrency", "2", "--renderer", "osmesa"};
+  workers_.push_back(
+      std::make_unique<WorkerProcess>(redis_->url(), flags, std::vector<std::string>{"VPREMESH_FAULT_CRASH_ON_LABEL=poison"}));
+  WorkerProcess* worker = workers_.back().get();
+  ASSERT_READY(worker);
+  const pid_t worker_pid_before = worker->pid();
   auto stub = make_stub(server->address());
 
   std::string poison, normal;
   ASSERT_TRUE(submit_job(*stub, inputs[0].spec("poison"), inputs[0].draco, &poison).ok()) << all_logs();
   ASSERT_TRUE(submit_job(*stub, inputs[1].spec("normal"), inputs[1].draco, &normal).ok()) << all_logs();
-  grpc::ClientContext poison_call, normal_call;
-  auto poison_watch = std::async(std::launch::async, [&] { return watch_job(*stub, poison, &poison_call); });
-  auto normal_watch = std::async(std::launch::async, [&] { return watch_job(*stub, normal, &normal_call); });
-  CancelOnExit cancel({&poison_call, &normal_call});
+  const History p = watch_job(*stub, poison);
+  const History n = watch_job(*stub, normal);
 
-  // Keep kWorkers alive: replace every worker that died (the crash is the
-  // point), until both jobs have ended.
-  std::vector<int> exit_codes;
-  bool restart_failed = false;
-  auto both_ended = [&] {
-    return poison_watch.wait_for(std::chrono::seconds(0)) == std::future_status::ready &&
-           normal_watch.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
-  };
-  // Records the workers that have exited; returns how many.
-  auto reap = [&] {
-    size_t gone = 0;
-    for (auto it = workers_.begin(); it != workers_.end();)
-      if (auto code = (*it)->exit_code()) {
-        exit_codes.push_back(*code);
-        it = workers_.erase(it);
-        ++gone;
-      } else {
-        ++it;
-      }
-    return gone;
-  };
-  wait_until([&] {
-    for (size_t gone = reap(); gone > 0 && !restart_failed; --gone) restart_failed = !start_worker(flags, env)->ready();
-    return both_ended() || restart_failed || exit_codes.size() > 4 * kMaxDeliveries;
-  });
-  ASSERT_FALSE(restart_failed) << all_logs();
-  ASSERT_TRUE(both_ended()) << exit_codes.size() << " workers crashed and the jobs did not end\n" << all_logs();
-  // The last crash came a visibility timeout before the dead letter, but a
-  // loaded machine may have ended the jobs while a replacement was starting:
-  // count the crashes that loop did not see (a few seconds for the reaper to
-  // see a dead process; fewer crashes than deliveries fail below).
-  wait_until(
-      [&] {
-        reap();
-        return exit_codes.size() >= size_t(kMaxDeliveries);
-      },
-      std::chrono::seconds(5));
-  const int crashed = int(exit_codes.size());
-
-  const History p = poison_watch.get();
   ASSERT_TRUE(p.last() && p.last()->has_failed()) << p.describe() << "\n" << all_logs();
   const std::string message = p.last()->failed().message();
-  EXPECT_NE(message.find("dead-letter"), std::string::npos) << message;
-  EXPECT_EQ(p.started(), kMaxDeliveries) << p.describe();
-  EXPECT_NE(message.find(std::to_string(kMaxDeliveries)), std::string::npos) << message;
+  EXPECT_NE(message.find("the remesh process died on this job: SIGABRT in stage "), std::string::npos) << message;
+  EXPECT_NE(message.find("not retried"), std::string::npos) << message;
+  EXPECT_EQ(p.started(), 1) << p.describe();
   EXPECT_EQ(p.completed(), 0);
-  EXPECT_FALSE(p.status.ok());
   EXPECT_EQ(get_job(*stub, poison).state(), v1::JOB_STATE_FAILED);
-  EXPECT_EQ(crashed, kMaxDeliveries);
-  for (int code : exit_codes) EXPECT_EQ(code, -SIGABRT);
+
+  ASSERT_TRUE(n.status.ok()) << n.describe() << "\n" << all_logs();
+  EXPECT_EQ(n.completed(), 1);
+  EXPECT_EQ(n.started(), 1) << n.describe();
+  EXPECT_TRUE(n.result == inputs[1].expected);
+  // Both ran on this one worker process, which is still the same and alive.
+  ASSERT_EQ(p.worker_pids().size(), 1u);
+  EXPECT_EQ(p.worker_pids()[0], worker_pid_before);
+  EXPECT_EQ(n.worker_pids()[0], worker_pid_before);
+  EXPECT_FALSE(worker->exit_code().has_value()) << all_logs();
 
   RedisClient redis(redis_->port());
   auto dead = redis.command({"XRANGE", "vpremesh:dead", "-", "+"});
   ASSERT_TRUE(dead) << redis.error();
-  int entries = 0;
-  for (const RedisReply& entry : dead->elements)
-    if (entry.elements.size() == 2 && entry.elements[1].field("job") == poison) ++entries;
-  EXPECT_EQ(entries, 1) << dead->elements.size() << " entries in vpremesh:dead";
+  int poison_entries = 0, normal_entries = 0;
+  for (const RedisReply& entry : dead->elements) {
+    if (entry.elements.size() != 2) continue;
+    const RedisReply& fields = entry.elements[1];
+    if (fields.field("job") == normal) ++normal_entries;
+    if (fields.field("job") != poison) continue;
+    ++poison_entries;
+    const std::string reason = fields.field("reason").value_or("");
+    EXPECT_NE(reason.find("SIGABRT in stage "), std::string::npos) << reason;
+    EXPECT_EQ(fields.field("deliveries").value_or(""), "1");
+  }
+  EXPECT_EQ(poison_entries, 1) << dead->elements.size() << " entries in vpremesh:dead";
+  EXPECT_EQ(normal_entries, 0);
 
-  const History n = normal_watch.get();
-  ASSERT_TRUE(n.status.ok()) << n.describe() << "\n" << all_logs();
-  EXPECT_EQ(n.completed(), 1);
-  EXPECT_TRUE(n.result == inputs[1].expected);
-  std::printf("[scaling] poison job: dead-lettered after %d deliveries, %d worker crashes\n", p.started(), crashed);
+  // The worker goes on: its next job completes.
+  const History next = remesh_job(*stub, inputs[2]);
+  ASSERT_TRUE(next.status.ok()) << next.describe() << "\n" << all_logs();
+  EXPECT_TRUE(next.result == inputs[2].expected);
+  EXPECT_EQ(worker->pid(), worker_pid_before);
 }
 
 // Cancellation crosses hosts: a job submitted through replica A and running
