@@ -167,11 +167,12 @@ bool JobProcess::alive() {
   return false;
 }
 
-bool JobProcess::run(JobQueue& queue, ClaimedJob job, ServiceMetrics* metrics) {
-  const std::string id = job.id;
+JobProcess::Outcome JobProcess::run(JobQueue& queue, const std::string& id, const std::string& job_frame,
+                                    ServiceMetrics* metrics, bool last_try) {
   std::string step = "start";
-  bool ended = false;  // the job's last event has been published
-  bool alive = write_frame(fd_, FrameType::kJob, encode_job(&job));
+  bool ended = false;     // the job's last event has been published
+  bool answered = false;  // the process has sent something for this job
+  bool alive = write_frame(fd_, FrameType::kJob, job_frame);
 
   size_t peak_rss = 0;
   bool killed_for_memory = false, killed_after_cancel = false;
@@ -205,6 +206,7 @@ bool JobProcess::run(JobQueue& queue, ClaimedJob job, ServiceMetrics* metrics) {
     }
     Frame f;
     if (!read_frame(fd_, &f)) break;
+    answered = true;
     switch (f.type) {
       case FrameType::kEvent: {
         v1::JobEvent e;
@@ -229,7 +231,7 @@ bool JobProcess::run(JobQueue& queue, ClaimedJob job, ServiceMetrics* metrics) {
       }
       case FrameType::kJobDone:
         if (!ended) queue.fail_crashed(id, internal_error("the job process returned without ending job " + id));
-        return true;
+        return Outcome::kEnded;
       default:
         alive = false;  // not a frame of this protocol: the process is not well
     }
@@ -239,6 +241,13 @@ bool JobProcess::run(JobQueue& queue, ClaimedJob job, ServiceMetrics* metrics) {
   kill(pid_, SIGKILL);
   const pid_t pid = pid_;
   const int status = reap();
+  close(fd_);
+  fd_ = -1;
+  if (!answered && !last_try) {
+    spdlog::warn("job {}: process {} died before it took the job ({}); running it in a new one", id, pid,
+                 crash_status(status, "idle", options_, 0, false).message());
+    return Outcome::kNotTaken;
+  }
   if (!ended) {
     if (killed_after_cancel) {
       const std::optional<Status> why = queue.cancellation(id);
@@ -251,9 +260,7 @@ bool JobProcess::run(JobQueue& queue, ClaimedJob job, ServiceMetrics* metrics) {
   }
   spdlog::error("job {}: its process {} ended in stage {} ({}); starting another", id, pid, step,
                 crash_status(status, step, options_, peak_rss, killed_for_memory).message());
-  close(fd_);
-  fd_ = -1;
-  return false;
+  return Outcome::kProcessDied;
 }
 
 }  // namespace vpr::service

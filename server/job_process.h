@@ -59,12 +59,19 @@ class JobProcess {
   // it must be replaced, and no job is lost.
   bool alive();
 
-  // Runs one job in the process, publishing its events to `queue` (and
-  // observing them in `metrics`, may be null). Returns false when the
-  // process died or stopped answering: the job has then ended (failed with
-  // the crash report, unless its end was already published) and this
-  // process must be replaced.
-  bool run(JobQueue& queue, ClaimedJob job, ServiceMetrics* metrics);
+  enum class Outcome {
+    kEnded,          // the job ended; the process is ready for the next one
+    kProcessDied,    // the job ended with the crash report; replace the process
+    kNotTaken,       // the process died before it took the job (killed while
+                     // idle, and still exiting): the job has not started and
+                     // may run in a new process; replace this one
+  };
+  // Runs one job (job_frame: encode_job's payload) in the process,
+  // publishing its events to `queue` and observing them in `metrics` (may
+  // be null). With last_try, kNotTaken is reported as kProcessDied, the job
+  // failed like any crash.
+  Outcome run(JobQueue& queue, const std::string& job_id, const std::string& job_frame, ServiceMetrics* metrics,
+              bool last_try);
 
  private:
   JobProcess(const JobProcessOptions& options, pid_t pid, int fd) : options_(options), pid_(pid), fd_(fd) {}

@@ -13,6 +13,7 @@
 
 #include "io/mesh_io.h"
 #include "server/job_process.h"
+#include "server/job_process_init.h"
 #include "server/job_spec.h"
 #include "server/status_mapping.h"
 #ifdef VPR_HAVE_CUDA
@@ -374,16 +375,28 @@ void WorkerPool::worker_main(int index) {
     if (!isolated) {
       run_job(queue_, std::move(*job), ctx);
     } else {
-      if (process && !process->alive()) process.reset();  // killed while idle: this job never met it
-      if (!process) {  // start one (again) for this job
-        auto started = JobProcess::start(options_.process, ctx);
-        if (started.ok()) process = std::move(started).value();
-        else queue_.publish(job->id, failed_event(unavailable("no job process can run jobs on " + ctx.name + ": " +
-                                                              started.status().message())));
-      }
-      if (process && !process->run(queue_, std::move(*job), metrics_)) {
-        // The job has ended with the crash report; the next job gets a fresh process.
+      const std::string id = job->id;
+      const std::string frame = encode_job(&*job);
+      // A process found dead before it took the job (killed while idle) costs
+      // no job: the job runs in a new one, once.
+      for (int attempt = 0; attempt < 2; ++attempt) {
+        if (process && !process->alive()) process.reset();
+        if (!process) {
+          auto started = JobProcess::start(options_.process, ctx);
+          if (!started.ok()) {
+            spdlog::error("{}: cannot start a job process: {}", ctx.name, started.status().message());
+            queue_.publish(id, failed_event(unavailable("no job process can run jobs on " + ctx.name + ": " +
+                                                        started.status().message())));
+            break;
+          }
+          process = std::move(started).value();
+        }
+        const JobProcess::Outcome outcome = process->run(queue_, id, frame, metrics_, attempt == 1);
+        if (outcome == JobProcess::Outcome::kEnded) break;
         process.reset();
+        if (outcome == JobProcess::Outcome::kProcessDied) break;
+      }
+      if (!process) {  // replace the dead process now, not when the next job waits for it
         auto started = JobProcess::start(options_.process, ctx);
         if (started.ok()) {
           process = std::move(started).value();
