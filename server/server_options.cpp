@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <fstream>
 #include <memory>
 
 namespace vpr::service {
@@ -16,7 +17,8 @@ void add_isolation_options(CLI::App& app, JobIsolationOptions* o) {
       ->check(CLI::IsMember({"process", "thread"}))
       ->capture_default_str();
   app.add_option("--job-memory-mib", o->memory_mib,
-                 "MiB one job process may hold (0: 3/4 of this machine's memory over the workers); past it the "
+                 "MiB one job process may hold (0: 3/4 of this machine's or container's memory over the workers); "
+                 "past it the "
                  "job fails RESOURCE_EXHAUSTED")
       ->check(CLI::Range(size_t(0), size_t(1) << 30))
       ->capture_default_str();
@@ -27,10 +29,26 @@ void add_isolation_options(CLI::App& app, JobIsolationOptions* o) {
       ->capture_default_str();
 }
 
+namespace {
+
+// The memory this process may use: the machine's, or less where a cgroup
+// (a container's memory limit) says so.
+size_t usable_memory() {
+  size_t bytes = size_t(sysconf(_SC_PHYS_PAGES)) * size_t(sysconf(_SC_PAGESIZE));
+  for (const char* path : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
+    std::ifstream f(path);
+    unsigned long long limit = 0;
+    if (f >> limit && limit > 0) bytes = std::min<size_t>(bytes, size_t(limit));  // "max" reads as no number
+  }
+  return bytes;
+}
+
+}  // namespace
+
 JobProcessOptions job_process_options(const JobIsolationOptions& o, int workers) {
   JobProcessOptions p;
   if (o.mode == "process") p.exe = "/proc/self/exe";  // this very binary, even if replaced on disk since
-  const size_t machine = size_t(sysconf(_SC_PHYS_PAGES)) * size_t(sysconf(_SC_PAGESIZE));
+  const size_t machine = usable_memory();
   p.memory_bytes = o.memory_mib > 0 ? o.memory_mib << 20 : machine / 4 * 3 / size_t(std::max(workers, 1));
   p.cpu_seconds = o.cpu_seconds;
   return p;
