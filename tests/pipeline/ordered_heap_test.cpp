@@ -14,6 +14,13 @@
 
 #include "pipeline/meshing.h"
 
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define VPR_TEST_ASAN 1
+#include <sanitizer/asan_interface.h>
+#endif
+#endif
+
 namespace vpr {
 namespace {
 
@@ -47,11 +54,47 @@ TEST(OrderedHeap, OtherThreadsKeepTheOrdinaryHeap) {
   delete[] mine;
 }
 
+// On a fresh thread: a thread reuses its region when it is large enough, and
+// earlier tests in this process may have given this one a large region.
 TEST(OrderedHeap, ExhaustedScopeFallsBackToTheHeap) {
-  OrderedHeapScope scope(4096);
-  std::vector<char> big(1 << 20, 'x');  // does not fit: comes from malloc, still usable
-  EXPECT_TRUE(scope.exhausted());
-  EXPECT_EQ(big[12345], 'x');
+  bool exhausted = false;
+  char value = 0;
+  std::thread([&] {
+    OrderedHeapScope scope(4096);
+    std::vector<char> big(1 << 20, 'x');  // does not fit: comes from malloc, still usable
+    exhausted = scope.exhausted();
+    value = big[12345];
+  }).join();
+  EXPECT_TRUE(exhausted);
+  EXPECT_EQ(value, 'x');
+}
+
+// Under AddressSanitizer the region is checked like malloc's heap: the bytes
+// after a block, and a block whose scope has ended, are poisoned. The scopes
+// grow, so the thread's region is replaced; LeakSanitizer checks that the old
+// region's record is freed.
+TEST(OrderedHeap, AddressSanitizerSeesPastABlockAndAfterTheScope) {
+#if VPR_TEST_ASAN
+  // No gtest assertion inside a scope: its records would live in the region.
+  for (size_t bytes : {size_t(1) << 16, size_t(1) << 20, size_t(1) << 24}) {
+    char* p = nullptr;
+    bool active = false, last_byte_poisoned = true, next_byte_poisoned = false;
+    {
+      OrderedHeapScope scope(bytes);
+      active = scope.active();
+      p = new char[10];
+      last_byte_poisoned = __asan_address_is_poisoned(p + 9);
+      next_byte_poisoned = __asan_address_is_poisoned(p + 10);
+      delete[] p;  // a no-op inside a scope
+    }
+    ASSERT_TRUE(active);
+    EXPECT_FALSE(last_byte_poisoned);
+    EXPECT_TRUE(next_byte_poisoned);
+    EXPECT_TRUE(__asan_address_is_poisoned(p));
+  }
+#else
+  GTEST_SKIP() << "needs AddressSanitizer (make sanitize)";
+#endif
 }
 
 // The same points give the same faces however fragmented the heap is.

@@ -8,6 +8,27 @@
 #include <cstdlib>
 #include <new>
 
+// Under AddressSanitizer each block handed out is followed by a poisoned
+// redzone, and a scope poisons what it used when it ends, so that an overflow
+// inside AFSR is reported as it is on malloc's heap, and so is a block used
+// after its scope.
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define VPR_ASAN 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__)
+#define VPR_ASAN 1
+#endif
+#ifdef VPR_ASAN
+#include <sanitizer/asan_interface.h>
+constexpr size_t kRedzone = 32;
+#else
+#define ASAN_POISON_MEMORY_REGION(addr, size) ((void)(addr), (void)(size))
+#define ASAN_UNPOISON_MEMORY_REGION(addr, size) ((void)(addr), (void)(size))
+constexpr size_t kRedzone = 0;
+#endif
+
 namespace vpr {
 
 // A thread's region: one private mapping, reused by every scope on that
@@ -26,7 +47,14 @@ struct Region {
 namespace {
 
 thread_local Region* t_region = nullptr;    // while a scope is alive
-thread_local Region* t_reserved = nullptr;  // this thread's region, between scopes too
+// This thread's region, between scopes too. Its record is freed when the
+// thread exits or gets a larger region; the address range stays reserved and
+// remembered in g_lo/g_hi, which is all operator delete needs.
+struct Reserved {
+  Region* region = nullptr;
+  ~Reserved() { std::free(region); }
+};
+thread_local Reserved t_reserved;
 
 // Every region's address range, for operator delete (lock-free reads).
 constexpr int kMaxRanges = 1024;
@@ -75,11 +103,14 @@ Region* map_region(size_t bytes) {
 
 void* take(Region* r, size_t n, size_t align) {
   const size_t at = (r->used + align - 1) & ~(align - 1);
-  if (at + n > r->size) {
+  if (at + n + kRedzone > r->size) {
     r->exhausted = true;
     return nullptr;
   }
-  r->used = at + n;
+  ASAN_POISON_MEMORY_REGION(r->base + r->used, at - r->used);  // alignment padding
+  ASAN_UNPOISON_MEMORY_REGION(r->base + at, n);
+  ASAN_POISON_MEMORY_REGION(r->base + at + n, kRedzone);
+  r->used = at + n + kRedzone;
   return r->base + at;
 }
 
@@ -101,15 +132,19 @@ void release(void* p) noexcept {
 
 OrderedHeapScope::OrderedHeapScope(size_t bytes) {
   if (t_region) return;  // nested: the outer scope already orders this thread
-  if (!t_reserved || t_reserved->size < bytes) {
+  Region*& reserved = t_reserved.region;
+  if (!reserved || reserved->size < bytes) {
     Region* fresh = map_region(bytes);
     if (!fresh) return;
-    if (t_reserved) madvise(t_reserved->base, t_reserved->size, MADV_DONTNEED);  // keep it reserved, empty
-    t_reserved = fresh;
+    if (reserved) {
+      madvise(reserved->base, reserved->size, MADV_DONTNEED);  // keep it reserved, empty
+      std::free(reserved);
+    }
+    reserved = fresh;
   }
-  t_reserved->used = 0;
-  t_reserved->exhausted = false;
-  region_ = t_reserved;
+  reserved->used = 0;
+  reserved->exhausted = false;
+  region_ = reserved;
   t_region = region_;
 }
 
@@ -117,6 +152,7 @@ OrderedHeapScope::~OrderedHeapScope() {
   if (!region_) return;
   t_region = nullptr;
   madvise(region_->base, region_->used, MADV_DONTNEED);  // pages back to the system, addresses kept
+  ASAN_POISON_MEMORY_REGION(region_->base, region_->used);
 }
 
 bool OrderedHeapScope::exhausted() const {
