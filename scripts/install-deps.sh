@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs every Debian package vpremesh needs to build, test and run its demo.
+# Installs every Debian package vpremesh needs to build, test and run its demo
+# (and, with the argument `sanitize`, to build the sanitizer and fuzzing tests).
 # Idempotent: prints nothing and exits quickly when everything is present.
 set -euo pipefail
 
@@ -13,6 +14,11 @@ packages=(
   python3-grpcio python3-protobuf python3-yaml
   redis-server libhiredis-dev
 )
+# `install-deps.sh sanitize` (make sanitize, scripts/fuzz.sh): clang, its
+# sanitizer and libFuzzer runtimes, and llvm-symbolizer for readable reports.
+if [ "${1:-}" = sanitize ]; then
+  packages+=(clang libclang-rt-14-dev llvm-14)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
