@@ -180,6 +180,8 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
     // The service does not report AWLOP and meshing statistics: leave them out, not zero.
     j.erase("awlop");
     j.erase("meshing");
+    j.erase("back_half");
+    j.erase("cvt");
     j["job_id"] = o.job_id;
     j["server"] = server;
     j["worker"] = o.worker;

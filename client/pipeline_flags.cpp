@@ -34,10 +34,16 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--awlop-support", values.awlop_support, "h from 'target' spacing or 'paper' (input edges)")
       ->check(CLI::IsMember({"target", "paper"}))
       ->capture_default_str();
+  cmd->add_option("--density", values.density,
+                  "Vertex density: perception (curvature x saliency, CVT on the surface), curvature, uniform, or "
+                  "paper (the paper's sampling, AWLOP and advancing front)")
+      ->check(CLI::IsMember({"perception", "curvature", "uniform", "paper"}))
+      ->capture_default_str();
 }
 
 Status apply_pipeline_flags(const PipelineFlagValues& values, PipelineOptions* o) {
   if (values.awlop_support == "paper") o->awlop.support = AwlopSupport::kPaper;
+  o->density = parse_density_mode(values.density).value();
   o->views.pca_align = !values.no_pca;
   if (!values.rotation.empty()) {
     if (values.rotation.size() != 9) return invalid_argument("--rotation needs 9 numbers (row-major 3x3)");

@@ -113,6 +113,13 @@ Status pipeline_options_from_proto(const v1::PipelineOptions& p, PipelineOptions
   }
   VPR_RETURN_IF_ERROR(float_field("options.awlop_h_factor", p.awlop_h_factor(), 0, true, 100, false, d.awlop.h_factor,
                                   &o.awlop.h_factor));
+  if (p.density().empty()) {
+    o.density = d.density;
+  } else {
+    auto mode = parse_density_mode(p.density());
+    if (!mode.ok()) return invalid_argument("options." + mode.status().message());
+    o.density = *mode;
+  }
   return Status::Ok();
 }
 
@@ -180,6 +187,7 @@ StatusOr<v1::PipelineOptions> pipeline_options_to_proto(const PipelineOptions& o
   p.set_awlop_samples(uint32_t(o.awlop.attraction_samples_per_target));
   p.set_awlop_support(o.awlop.support == AwlopSupport::kPaper ? v1::AWLOP_SUPPORT_PAPER : v1::AWLOP_SUPPORT_TARGET);
   p.set_awlop_h_factor(o.awlop.h_factor);
+  p.set_density(density_mode_name(o.density));
   // Negative ints cast to uint32 above would wrap: check the result on the way back.
   PipelineOptions check = o;
   VPR_RETURN_IF_ERROR(pipeline_options_from_proto(p, &check));

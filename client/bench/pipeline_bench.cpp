@@ -35,8 +35,10 @@ double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
 
-const char* kStages[] = {"views",          "render",   "image_saliency", "unproject",
-                         "saliency_field", "sampling", "awlop",          "meshing"};
+// Both back halves' stages (the surface CVT's by default, the paper's with
+// --density paper); a stage a run did not have reads 0.
+const char* kStages[] = {"views", "render", "image_saliency", "unproject", "saliency_field",
+                         "density", "cvt", "sampling", "awlop", "meshing"};
 
 struct Args {
   std::vector<vpr::DevicePolicy> devices{vpr::DevicePolicy::kCpu};

@@ -48,7 +48,7 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
   std::vector<std::string> names;
   for (const auto& s : j["stages"]) names.push_back(s["name"]);
   for (const char* stage : {"read", "views", "render", "image_saliency", "unproject", "debug_output", "saliency_field",
-                            "sampling", "awlop", "meshing", "write"})
+                            "density", "cvt", "meshing", "write"})
     EXPECT_NE(std::find(names.begin(), names.end(), stage), names.end()) << stage;
 
   auto mesh = read_mesh(out);
@@ -78,7 +78,7 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
 TEST_F(CliTest, TablePrintsEveryStage) {
   CliRun r = run_cli("local ../shared/models/suzanne.obj -o " + path("s.ply") + " --target-vertices 300");
   ASSERT_EQ(r.code, 0) << r.all();
-  for (const char* stage : {"render", "image_saliency", "saliency_field", "awlop", "meshing", "total"})
+  for (const char* stage : {"render", "image_saliency", "saliency_field", "cvt", "meshing", "total"})
     EXPECT_NE(r.all().find(stage), std::string::npos) << r.all();
 }
 

@@ -33,6 +33,9 @@ class PipelineGpu : public ::testing::Test {
     options.target_vertices = kTarget;
     options.device = policy;
     options.device_budget = budget;
+    // The paper's back half: the stages with CUDA twins (the surface CVT
+    // back half has none yet and runs on the CPU).
+    options.density = DensityMode::kPaper;
     return run_pipeline(input_, options);
   }
 

@@ -125,7 +125,7 @@ TEST_F(BenchCliTest, ClosedLoopCompletesEveryRequest) {
   EXPECT_EQ(split(j, "lag"), 0);  // closed loop: sent when the client is free
   EXPECT_GT(split(j, "stages"), 0);
   EXPECT_GT(split(j, "upload"), 0);
-  for (const char* stage : {"render", "image_saliency", "saliency_field", "awlop", "meshing"})
+  for (const char* stage : {"render", "image_saliency", "saliency_field", "cvt", "meshing"})
     EXPECT_GT(j["stages_ms"].value(stage, 0.0), 0) << stage << "\n" << r.out;
   double stage_sum = 0;
   for (const auto& [name, ms] : j["stages_ms"].items()) stage_sum += ms.get<double>();

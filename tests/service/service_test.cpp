@@ -71,7 +71,7 @@ TEST_F(ServiceTest, SubmitEqualsLocalAndJobCommandsAnswer) {
   std::vector<std::string> stages;
   for (const auto& s : rj["stages"]) stages.push_back(s["name"]);
   for (const char* stage :
-       {"read", "upload", "queue", "render", "image_saliency", "saliency_field", "awlop", "meshing", "write"})
+       {"read", "upload", "queue", "render", "image_saliency", "saliency_field", "cvt", "meshing", "write"})
     EXPECT_NE(std::find(stages.begin(), stages.end(), stage), stages.end()) << stage << "\n" << remote.out;
 
   auto a = read_mesh(path("local.drc")), b = read_mesh(path("remote.drc"));

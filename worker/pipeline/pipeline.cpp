@@ -1,5 +1,7 @@
 #include "pipeline.h"
 
+#include "surface_refine.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
@@ -39,13 +41,14 @@ class StageRunner {
  public:
   StageRunner(const PipelineOptions& options, PipelineResult* result) : options_(options), result_(result) {}
 
+  // note (may be null): read after fn, for the stage's timing.
   template <class Fn>
-  Status run(const char* name, const std::string& device, Fn&& fn) {
+  Status run(const char* name, const std::string& device, Fn&& fn, const std::string* note = nullptr) {
     VPR_RETURN_IF_ERROR(check_cancelled(name));
     begin(name);
     const auto start = Clock::now();
     Status status = fn();
-    record(name, start, device, "");
+    record(name, start, device, note ? *note : "");
     if (!status.ok()) return {status.code(), std::string(name) + ": " + status.message()};
     return Status::Ok();
   }
@@ -328,6 +331,108 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     return VPR_TWIN(c, saliency_field)(input.positions.data(), input.vertex_count(), saliency_points.data(),
                                        saliency_points.size() / 3, options.field, scale, &result.input_importance, c);
   }));
+
+  // Stages 5-7 on the input surface: a converged CVT with the chosen density,
+  // then its dual. Polygon soups (no usable connectivity) go on below.
+  if (options.density != DensityMode::kPaper) {
+    RefinedSurface refined;
+    std::vector<double> mass;
+    bool soup = false;
+    std::string note;
+    VPR_RETURN_IF_ERROR(stage.run(
+        "density", cpu,
+        [&]() -> Status {
+          const std::vector<float> d = vertex_density(input, result.input_importance, options.density);
+          std::vector<float> channels(2 * input.vertex_count());
+          for (size_t v = 0; v < input.vertex_count(); ++v) {
+            channels[2 * v] = result.input_importance[v];
+            channels[2 * v + 1] = d[v];
+          }
+          const double max_edge = spacing_out / std::sqrt(options.cvt_elements_per_vertex);
+          const size_t limit = input.vertex_count() + size_t(64 * options.cvt_elements_per_vertex) * options.target_vertices;
+          VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, max_edge, limit));
+          // Over about two output spacings (elements are a quarter of one apart).
+          smooth_over_edges(refined.mesh, 16, 2, 1, &refined.value);
+          // A soup: most edges have one face even after welding.
+          std::vector<uint64_t> edges;
+          edges.reserve(refined.mesh.indices.size());
+          for (size_t f = 0; f < refined.mesh.face_count(); ++f)
+            for (int c = 0; c < 3; ++c) {
+              const uint64_t a = refined.mesh.indices[3 * f + c], b = refined.mesh.indices[3 * f + (c + 1) % 3];
+              edges.push_back(a < b ? (a << 32 | b) : (b << 32 | a));
+            }
+          std::sort(edges.begin(), edges.end());
+          size_t single = 0, distinct = 0;
+          for (size_t i = 0; i < edges.size();) {
+            size_t j = i;
+            while (j < edges.size() && edges[j] == edges[i]) ++j;
+            single += j - i == 1;
+            ++distinct;
+            i = j;
+          }
+          soup = distinct == 0 || single * 4 > distinct;
+          const std::vector<double> area = vertex_areas(refined.mesh);
+          mass.resize(area.size());
+          for (size_t v = 0; v < area.size(); ++v) {
+            const double dv = refined.value[2 * v + 1];
+            mass[v] = area[v] * dv * dv;  // rho = D^2: point density follows D
+          }
+          note = std::string(density_mode_name(options.density)) + " density; " +
+                 std::to_string(refined.mesh.vertex_count()) + " surface elements" +
+                 (soup ? "; a polygon soup: the paper's back half follows" : "");
+          return Status::Ok();
+        },
+        &note));
+    if (!soup) {
+      std::vector<uint32_t> label;
+      CvtOptions cvt = options.cvt;
+      cvt.seed = options.sampling.seed;
+      VPR_RETURN_IF_ERROR(stage.run(
+          "cvt", cpu,
+          [&]() -> Status {
+            VPR_RETURN_IF_ERROR(surface_cvt(refined.mesh, mass, options.target_vertices, cvt, &label, &result.cvt));
+            const auto& e = result.cvt.energy;
+            char text[160];
+            std::snprintf(text, sizeof text, "%d sweeps%s, energy %.4g -> %.4g", result.cvt.sweeps,
+                          result.cvt.converged ? " (converged)" : " (sweep limit)", e.front(), e.back());
+            note = text;
+            if (result.cvt.parts_below_minimum > 0)
+              note += "; " + std::to_string(result.cvt.parts_below_minimum) + " of " +
+                      std::to_string(result.cvt.parts) + " parts got fewer than " +
+                      std::to_string(cvt.min_per_part) + " vertices (target too small)";
+            return Status::Ok();
+          },
+          &note));
+      VPR_RETURN_IF_ERROR(stage.run(
+          "meshing", cpu,
+          [&]() -> Status {
+            std::vector<uint32_t> cell;
+            VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, label, options.target_vertices, &result.mesh, &cell,
+                                              &result.cluster_mesh));
+            // Each output vertex: its cell's mean importance (area-weighted).
+            std::vector<double> sum(options.target_vertices, 0.0), weight(options.target_vertices, 0.0);
+            const std::vector<double> area = vertex_areas(refined.mesh);
+            for (size_t v = 0; v < label.size(); ++v)
+              if (label[v] != UINT32_MAX) {
+                sum[label[v]] += area[v] * refined.value[2 * v];
+                weight[label[v]] += area[v];
+              }
+            result.saliency.resize(cell.size());
+            for (size_t v = 0; v < cell.size(); ++v)
+              result.saliency[v] = weight[cell[v]] > 0 ? float(sum[cell[v]] / weight[cell[v]]) : 1.0f;
+            result.meshing = result.cluster_mesh.repair;
+            note = "dual of the CVT cells; " + std::to_string(result.cluster_mesh.holes_closed) + " dual holes closed, " +
+                   std::to_string(result.cluster_mesh.boundary_loops) + " boundary loops kept";
+            return Status::Ok();
+          },
+          &note));
+      result.back_half = std::string("surface CVT (") + density_mode_name(options.density) + " density)";
+      denormalize(norm, &result.mesh.positions);
+      result.total_ms = ms_since(job_start);
+      return result;
+    }
+  }
+  result.back_half = "paper (adaptive sampling, AWLOP, advancing front)";
 
   // Stage 5: adaptive sampling of the target count (Eq. 7-16).
   std::vector<float> particles, particle_importance;

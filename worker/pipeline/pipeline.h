@@ -11,6 +11,7 @@
 
 #include "adaptive_sampling.h"
 #include "awlop.h"
+#include "cluster_mesh.h"
 #include "exec_context.h"
 #include "image_saliency.h"
 #include "job_device.h"
@@ -19,6 +20,8 @@
 #include "saliency_field.h"
 #include "snapshot.h"
 #include "status.h"
+#include "surface_cvt.h"
+#include "surface_density.h"
 #include "views.h"
 
 namespace vpr {
@@ -56,6 +59,15 @@ struct PipelineOptions {
   SamplingOptions sampling;
   AwlopOptions awlop;
   MeshingOptions meshing;
+  // The back half. kPaper: adaptive sampling, AWLOP, advancing front (the
+  // paper's). The others: a CVT on the input surface with that density, then
+  // its dual (surface_cvt.h, cluster_mesh.h); polygon soups without usable
+  // connectivity take the paper's back half whatever is asked.
+  DensityMode density = DensityMode::kPerception;
+  CvtOptions cvt;  // its seed is sampling.seed
+  // Surface elements per output vertex at the mean spacing (the refinement's
+  // edge length is the target spacing over sqrt of this).
+  double cvt_elements_per_vertex = 16;
   std::string debug_dir;  // when set: per-view PNGs and saliency points as PLY
   // Keep the saliency points' positions in PipelineResult (the service
   // returns them on request; a local run does not pay for the copy).
@@ -85,6 +97,9 @@ struct PipelineResult {
   std::string cpu_reason;  // why the CPU under DevicePolicy::kAuto ("built without CUDA", no device, ...)
   AwlopStats awlop;
   MeshingStats meshing;
+  std::string back_half;  // "surface CVT (perception density)" or "paper (AWLOP, advancing front)"
+  CvtStats cvt;
+  ClusterMeshStats cluster_mesh;
 };
 
 // Checks options that do not depend on the mesh (target range, constants).
