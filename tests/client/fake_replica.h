@@ -156,6 +156,9 @@ class FakeReplica final : public v1::RemeshService::Service {
 
   grpc::Status Remesh(grpc::ServerContext* context,
                       grpc::ServerReaderWriter<v1::JobEvent, v1::RemeshRequest>* stream) override {
+    // As vpremesh-server: headers before reading the upload, which the
+    // client waits for before it half-closes (client/upload.h).
+    stream->SendInitialMetadata();
     v1::RemeshRequest request;
     bool spec = false;
     uint64_t bytes = 0;
