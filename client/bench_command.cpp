@@ -94,8 +94,9 @@ RequestSample remesh_once(Client& client, const v1::JobSpec& spec, const std::ve
   s.upload_ms = ms_between(sent, Clock::now());
   v1::JobEvent event;
   v1::Failure failure;
-  bool ended = false;
+  bool ended = false, answered = false;
   while (stream->Read(&event)) {
+    answered = true;
     switch (event.event_case()) {
       case v1::JobEvent::kStarted:
         s.queue_ms = event.started().queue_ms();
@@ -129,6 +130,7 @@ RequestSample remesh_once(Client& client, const v1::JobSpec& spec, const std::ve
   if (!status.ok()) {
     s.error_code = grpc_code_name(status.error_code());
     s.error = status.error_message();
+    s.connection_failure = !answered && is_connection_failure(status);
   } else if (ended) {
     s.error_code = grpc_code_name(grpc::StatusCode(failure.code()));
     s.error = failure.message();
@@ -375,6 +377,12 @@ int run_bench(const BenchArgs& a, bool open) {
     std::printf("%s (%zu bytes of Draco) -> %u vertices, %s; %d warmup request(s) not counted\n\n", input_name.c_str(),
                 bytes->size(), a.target_vertices, a.no_result ? "no result returned" : "result returned", a.warmup);
     std::printf("%s", format_load_report(report).c_str());
+  }
+  if (report.completed == 0 && report.errors == 0 && report.connection_errors > 0) {
+    std::fprintf(stderr, "vpremesh: UNAVAILABLE: none of %zu requests reached %s (%zu connection errors: %s)\n",
+                 report.requests, a.server.c_str(), report.connection_errors,
+                 one_line(report.connection_error_example).c_str());
+    return exit_code_for(grpc::StatusCode::UNAVAILABLE);
   }
   if (report.completed == 0 && report.errors > 0) {
     // Nothing completed: say why in one line and exit with the commonest code.

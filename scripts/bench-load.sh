@@ -38,6 +38,8 @@ j = json.load(open(path))
 l, s = j["latency_ms"], j["split_ms"]
 load = f"C={j['concurrency']}" if j["mode"] == "closed" else f"{j['rate_per_s']:.2f}/s x {j['duration_s']:g} s"
 errors = ", ".join(f"{k} {v}" for k, v in j["errors_by_code"].items()) or "0"
+if j.get("connection_errors"):
+    errors += f"; connection {j['connection_errors']}"
 cells = [workers, model, j["mode"], load, j["requests"], j["completed"], errors, f"{j['throughput_per_s']:.3f}"]
 cells += [f"{l[k]:.0f}" for k in ("p50", "p90", "p99", "p99.9", "max", "mean")]
 cells += [f"{s[k]:.0f}" for k in ("upload", "queue", "stages", "server_other", "transfer_other")]
