@@ -32,6 +32,7 @@
 #include <thread>
 #include <vector>
 
+#include "channel.h"
 #include "commands.h"
 #include "exit_codes.h"
 #include "grpc_errors.h"
@@ -66,19 +67,20 @@ double ms_between(Clock::time_point from, Clock::time_point to) {
   return std::chrono::duration<double, std::milli>(to - from).count();
 }
 
-// A channel with a connection of its own: gRPC shares connections between
-// channels with equal arguments unless each keeps a local subchannel pool.
-std::shared_ptr<grpc::Channel> own_connection(const std::string& server) {
-  grpc::ChannelArguments args;
-  args.SetMaxReceiveMessageSize(8 << 20);  // as make_channel: chunks of 1 MiB plus the envelope
-  args.SetMaxSendMessageSize(8 << 20);
-  args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-  return grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args);
-}
+// One client: a channel with a connection of its own (gRPC would otherwise
+// share one connection between channels with equal arguments) and its stub.
+struct Client {
+  explicit Client(const std::string& server)
+      : channel(make_channel(server, Connection::kOwn)), stub(v1::RemeshService::NewStub(channel)) {}
+  std::shared_ptr<grpc::Channel> channel;
+  std::unique_ptr<v1::RemeshService::Stub> stub;
+};
 
 // One Remesh call, upload to last event. `intended`: when the schedule
 // wanted it sent (the latency's origin); a default time_point: now.
-RequestSample remesh_once(v1::RemeshService::Stub& stub, const v1::JobSpec& spec, const std::vector<uint8_t>& bytes,
+// Each call waits for its connection (wait_for_server): a connection attempt
+// that fails once costs a reconnect, not the request.
+RequestSample remesh_once(Client& client, const v1::JobSpec& spec, const std::vector<uint8_t>& bytes,
                           double deadline_s, Clock::time_point intended = {}) {
   RequestSample s;
   const Clock::time_point sent = Clock::now();
@@ -86,13 +88,15 @@ RequestSample remesh_once(v1::RemeshService::Stub& stub, const v1::JobSpec& spec
   s.lag_ms = std::max(0.0, ms_between(intended, sent));
   grpc::ClientContext context;
   set_deadline(context, deadline_s);
-  auto stream = stub.Remesh(&context);
+  wait_for_server(*client.channel, context);
+  auto stream = client.stub->Remesh(&context);
   upload(*stream, spec, bytes);
   s.upload_ms = ms_between(sent, Clock::now());
   v1::JobEvent event;
   v1::Failure failure;
-  bool ended = false;
+  bool ended = false, answered = false;
   while (stream->Read(&event)) {
+    answered = true;
     switch (event.event_case()) {
       case v1::JobEvent::kStarted:
         s.queue_ms = event.started().queue_ms();
@@ -126,6 +130,7 @@ RequestSample remesh_once(v1::RemeshService::Stub& stub, const v1::JobSpec& spec
   if (!status.ok()) {
     s.error_code = grpc_code_name(status.error_code());
     s.error = status.error_message();
+    s.connection_failure = !answered && is_connection_failure(status);
   } else if (ended) {
     s.error_code = grpc_code_name(grpc::StatusCode(failure.code()));
     s.error = failure.message();
@@ -142,16 +147,17 @@ struct Run {
 };
 
 // C clients on their own connections, `count` requests in all.
-Run closed_loop(const std::vector<v1::RemeshService::Stub*>& clients, int count, const v1::JobSpec& spec,
+Run closed_loop(const std::vector<Client*>& clients, int count, const v1::JobSpec& spec,
                 const std::vector<uint8_t>& bytes, double deadline_s) {
   Run run;
   run.samples.resize(size_t(count));
   std::atomic<int> next{0};
   const Clock::time_point start = Clock::now();
   std::vector<std::thread> threads;
-  for (v1::RemeshService::Stub* stub : clients)
-    threads.emplace_back([&, stub] {
-      for (int i = next++; i < count; i = next++) run.samples[size_t(i)] = remesh_once(*stub, spec, bytes, deadline_s);
+  for (Client* client : clients)
+    threads.emplace_back([&, client] {
+      for (int i = next++; i < count; i = next++)
+        run.samples[size_t(i)] = remesh_once(*client, spec, bytes, deadline_s);
     });
   for (std::thread& t : threads) t.join();
   run.wall_s = ms_between(start, Clock::now()) / 1000;
@@ -172,13 +178,13 @@ class ConnectionPool {
         ++active_[i];
         return i;
       }
-    stubs_.push_back(v1::RemeshService::NewStub(own_connection(server_)));
+    clients_.emplace_back(server_);
     active_.push_back(1);
     return active_.size() - 1;
   }
-  v1::RemeshService::Stub& stub(size_t i) {
+  Client& client(size_t i) {
     std::lock_guard<std::mutex> lock(mutex_);
-    return *stubs_[i];  // a deque: references stay valid as it grows
+    return clients_[i];  // a deque: references stay valid as it grows
   }
   void release(size_t i) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -186,14 +192,14 @@ class ConnectionPool {
   }
   size_t size() const {
     std::lock_guard<std::mutex> lock(mutex_);
-    return stubs_.size();
+    return clients_.size();
   }
 
  private:
   const std::string server_;
   const int per_connection_;
   mutable std::mutex mutex_;
-  std::deque<std::unique_ptr<v1::RemeshService::Stub>> stubs_;
+  std::deque<Client> clients_;
   std::deque<int> active_;
 };
 
@@ -260,7 +266,7 @@ Run open_loop(ConnectionPool& pool, double rate, double duration_s, const v1::Jo
     std::this_thread::sleep_until(intended);
     threads.submit([&, i, intended] {
       const size_t c = pool.acquire();
-      run.samples[i] = remesh_once(pool.stub(c), spec, bytes, deadline_s, intended);
+      run.samples[i] = remesh_once(pool.client(c), spec, bytes, deadline_s, intended);
       pool.release(c);
       ends[i] = Clock::now();
     });
@@ -275,13 +281,13 @@ Run open_loop(ConnectionPool& pool, double rate, double duration_s, const v1::Jo
 
 // A cheap call that fails fast when nothing answers at the address; any
 // answer from a server (NOT_FOUND for the made-up job) will do.
-grpc::Status probe(v1::RemeshService::Stub& stub) {
+grpc::Status probe(Client& client) {
   grpc::ClientContext context;
   set_deadline(context, 10);
   v1::JobRef ref;
   ref.set_job_id("vpremesh-bench-probe");
   v1::JobStatus status;
-  const grpc::Status s = stub.GetJob(&context, ref, &status);
+  const grpc::Status s = client.stub->GetJob(&context, ref, &status);
   if (s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)
     return grpc::Status(grpc::StatusCode::UNAVAILABLE, "the server did not answer within 10 s");
   return s;
@@ -319,18 +325,15 @@ int run_bench(const BenchArgs& a, bool open) {
   // Closed loop: one connection per client. Open loop: the pool, whose first
   // connection carries the probe and the warmup (so it is open when the
   // schedule starts).
-  std::vector<std::unique_ptr<v1::RemeshService::Stub>> owned;
-  std::vector<v1::RemeshService::Stub*> clients;
+  std::deque<Client> owned;
+  std::vector<Client*> clients;
   ConnectionPool pool(a.server, a.per_connection);
   if (open) {
     const size_t first = pool.acquire();
     pool.release(first);
-    clients.push_back(&pool.stub(first));
+    clients.push_back(&pool.client(first));
   } else {
-    for (int i = 0; i < a.concurrency; ++i) {
-      owned.push_back(v1::RemeshService::NewStub(own_connection(a.server)));
-      clients.push_back(owned.back().get());
-    }
+    for (int i = 0; i < a.concurrency; ++i) clients.push_back(&owned.emplace_back(a.server));
   }
   if (const grpc::Status s = probe(*clients.front()); s.error_code() == grpc::StatusCode::UNAVAILABLE)
     return report_call_error(s, a.server);
@@ -374,6 +377,12 @@ int run_bench(const BenchArgs& a, bool open) {
     std::printf("%s (%zu bytes of Draco) -> %u vertices, %s; %d warmup request(s) not counted\n\n", input_name.c_str(),
                 bytes->size(), a.target_vertices, a.no_result ? "no result returned" : "result returned", a.warmup);
     std::printf("%s", format_load_report(report).c_str());
+  }
+  if (report.completed == 0 && report.errors == 0 && report.connection_errors > 0) {
+    std::fprintf(stderr, "vpremesh: UNAVAILABLE: none of %zu requests reached %s (%zu connection errors: %s)\n",
+                 report.requests, a.server.c_str(), report.connection_errors,
+                 one_line(report.connection_error_example).c_str());
+    return exit_code_for(grpc::StatusCode::UNAVAILABLE);
   }
   if (report.completed == 0 && report.errors > 0) {
     // Nothing completed: say why in one line and exit with the commonest code.

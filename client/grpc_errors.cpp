@@ -5,21 +5,18 @@
 #include "exit_codes.h"
 
 namespace vpr::cli {
-namespace {
 
-bool is_transport_failure(const grpc::Status& status) {
+bool is_connection_failure(const grpc::Status& status) {
   if (status.error_code() != grpc::StatusCode::UNAVAILABLE) return false;
   const std::string& m = status.error_message();
   // The server's own answer when its Redis queue is down quotes Redis'
   // socket error ("Connection refused"): the server was reached.
   if (m.rfind("the job queue ", 0) == 0) return false;
   for (const char* needle : {"failed to connect", "Connection refused", "DNS resolution failed", "Socket closed",
-                             "Connection reset", "No route to host"})
+                             "Connection reset", "Broken pipe", "No route to host"})
     if (m.find(needle) != std::string::npos) return true;
   return false;
 }
-
-}  // namespace
 
 std::string one_line(std::string s) {
   for (char& c : s)
@@ -71,7 +68,7 @@ std::string grpc_code_name(grpc::StatusCode code) {
 
 std::string describe_call_error(const grpc::Status& status, const std::string& server) {
   std::string message = one_line(status.error_message());
-  if (is_transport_failure(status))
+  if (is_connection_failure(status))
     message = "cannot reach the server at " + server + (message.empty() ? "" : " (" + message + ")");
   else if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED && message == "Deadline Exceeded")
     message = "the --deadline passed before the job ended";

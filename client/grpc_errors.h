@@ -17,6 +17,10 @@ std::string one_line(std::string s);
 // "RESOURCE_EXHAUSTED", "UNAVAILABLE", ...; "CODE_<n>" for a value outside the enum.
 std::string grpc_code_name(grpc::StatusCode code);
 
+// True when the call failed in the transport, not by the server's answer:
+// nothing accepted the connection, or it broke before the server answered.
+bool is_connection_failure(const grpc::Status& status);
+
 // The line printed for a failed call to `server` (without "vpremesh: "). A
 // transport failure (nothing listening, name not resolved) says which address
 // could not be reached.

@@ -108,6 +108,7 @@ int run_unary(const JobArgs& a, UnaryJobCall method) {
   for (size_t i = 0;; ++i) {
     grpc::ClientContext context;
     replicas.set_deadline(context);
+    if (i == 0) replicas.wait_for_single_server(i, context);
     v1::JobStatus status;
     const grpc::Status call = (replicas.stub(i).*method)(&context, ref, &status);
     if (call.ok()) return print_status(status, a.json);

@@ -198,19 +198,6 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
   return kExitOk;
 }
 
-std::shared_ptr<grpc::Channel> make_channel(const std::string& server) {
-  grpc::ChannelArguments args;
-  // Chunks are at most 1 MiB of payload; leave room for the envelope.
-  args.SetMaxReceiveMessageSize(8 << 20);
-  args.SetMaxSendMessageSize(8 << 20);
-  // gRPC's default reconnect backoff grows to 120 s: a single replica that
-  // restarts would stay unreachable long after it is back, while
-  // --reattach-timeout waits for it.
-  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
-  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 2000);
-  return grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args);
-}
-
 void set_deadline(grpc::ClientContext& context, double seconds) {
   if (seconds <= 0) return;
   context.set_deadline(std::chrono::system_clock::now() + std::chrono::microseconds(int64_t(seconds * 1e6)));

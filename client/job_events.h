@@ -54,11 +54,6 @@ struct JobOutputs {
 // the exit code.
 int finish_job(const JobOutcome& outcome, const JobOutputs& outputs, const std::string& server);
 
-// A channel to `server` (host:port, insecure: the service runs inside a
-// trusted network) whose messages may be as large as our chunks need, and
-// which reconnects within 2 s of a restarted server coming back.
-std::shared_ptr<grpc::Channel> make_channel(const std::string& server);
-
 // Sets the call's deadline `seconds` from now (0 or less: none).
 void set_deadline(grpc::ClientContext& context, double seconds);
 

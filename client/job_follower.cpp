@@ -52,6 +52,7 @@ void JobFollower::consume(const v1::JobEvent& event) {
 EventStream JobFollower::open_watch(size_t index) {
   auto call = std::make_shared<WatchCall>();
   replicas_.set_deadline(call->context);
+  if (!reattaching_) replicas_.wait_for_single_server(index, call->context);
   v1::JobRef ref;
   ref.set_job_id(outcome_->job_id);
   ref.set_from_sequence(next_sequence_);

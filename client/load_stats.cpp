@@ -40,6 +40,10 @@ LoadReport summarize_load(const std::vector<RequestSample>& samples, double wall
   std::map<std::string, double> stage_sums;
   double lag = 0, upload = 0, queue = 0, stages = 0, run = 0, bytes = 0;
   for (const RequestSample& s : samples) {
+    if (!s.completed && s.connection_failure) {
+      if (r.connection_errors++ == 0) r.connection_error_example = s.error;
+      continue;
+    }
     if (!s.completed) {
       ++r.errors;
       ++r.errors_by_code[s.error_code];
@@ -106,6 +110,8 @@ nlohmann::json load_report_json(const LoadReport& r) {
           {"errors", r.errors},
           {"errors_by_code", r.errors_by_code},
           {"error_examples", r.error_examples},
+          {"connection_errors", r.connection_errors},
+          {"connection_error_example", r.connection_error_example},
           {"wall_s", r.wall_s},
           {"throughput_per_s", r.throughput_per_s},
           {"latency_ms", percentiles_json(r.latency)},
@@ -124,8 +130,9 @@ nlohmann::json load_report_json(const LoadReport& r) {
 }
 
 std::string format_load_report(const LoadReport& r) {
-  std::string out = printf_string("requests %zu, completed %zu, errors %zu in %.2f s: %.3f completed/s\n", r.requests,
-                                  r.completed, r.errors, r.wall_s, r.throughput_per_s);
+  std::string out =
+      printf_string("requests %zu, completed %zu, errors %zu, connection errors %zu in %.2f s: %.3f completed/s\n",
+                    r.requests, r.completed, r.errors, r.connection_errors, r.wall_s, r.throughput_per_s);
   out +=
       printf_string("\n%-10s %9s %9s %9s %9s %9s %9s %9s\n", "ms", "min", "p50", "p90", "p99", "p99.9", "max", "mean");
   for (const auto& [name, p] : {std::pair{"latency", r.latency}, std::pair{"queue", r.queue}})
@@ -150,6 +157,9 @@ std::string format_load_report(const LoadReport& r) {
     for (const auto& [code, n] : r.errors_by_code)
       out += printf_string("%-20s %7zu  %.200s\n", code.c_str(), n, r.error_examples.at(code).c_str());
   }
+  if (r.connection_errors > 0)
+    out += printf_string("\n%-20s %7zu  %.200s\n", "connection", r.connection_errors,
+                         r.connection_error_example.c_str());
   return out;
 }
 

@@ -27,6 +27,10 @@ struct RequestSample {
   double run_ms = 0;       // server: the job's run (Completed.run_ms: pipeline, decode and encode)
   std::vector<std::pair<std::string, double>> stages;  // Stage events, in order
   uint64_t result_bytes = 0;                           // bytes of `result` events received
+  // The request failed in the transport before any event came: no
+  // connection could be made, or it broke before the server answered
+  // (grpc_errors.h). Counted apart from the server's refusals and failed jobs.
+  bool connection_failure = false;
 };
 
 // Nearest-rank percentiles of a set of values: pq is the smallest value with
@@ -41,9 +45,12 @@ double nearest_rank(const std::vector<double>& sorted, double q);
 Percentiles percentiles(std::vector<double> values);
 
 struct LoadReport {
+  // requests = completed + errors + connection_errors
   size_t requests = 0, completed = 0, errors = 0;
-  std::map<std::string, size_t> errors_by_code;       // code name -> count
+  std::map<std::string, size_t> errors_by_code;       // code name -> count (the server's answers)
   std::map<std::string, std::string> error_examples;  // code name -> the first message seen
+  size_t connection_errors = 0;                       // requests that never reached the server
+  std::string connection_error_example;               // the first one's message
   double wall_s = 0;                                  // first intended send to the last call's end
   double throughput_per_s = 0;                        // completed / wall_s
   Percentiles latency;                                // completed requests only
@@ -62,6 +69,7 @@ struct LoadReport {
 LoadReport summarize_load(const std::vector<RequestSample>& samples, double wall_s);
 
 // {"requests", "completed", "errors", "errors_by_code": {CODE: n}, "error_examples": {CODE: message},
+//  "connection_errors", "connection_error_example",
 //  "wall_s", "throughput_per_s", "latency_ms": {count, min, mean, p50, p90, p99, p99.9, max},
 //  "queue_ms": {... the same}, "split_ms": {lag, upload, queue, stages, server_other, transfer_other, total},
 //  "stages_ms": {name: mean}, "stage_order": [names], "result_bytes_mean"}

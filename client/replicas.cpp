@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "job_events.h"
+#include "channel.h"
 
 namespace vpr::cli {
 namespace {
@@ -45,6 +45,12 @@ vpremesh::v1::RemeshService::Stub& Replicas::stub(size_t i) {
 
 void Replicas::set_deadline(grpc::ClientContext& context) const {
   if (has_deadline_) context.set_deadline(deadline_);
+}
+
+void Replicas::wait_for_single_server(size_t i, grpc::ClientContext& context) {
+  if (size() != 1) return;
+  stub(i);  // makes the channel
+  wait_for_server(*channels_[i % size()], context);
 }
 
 size_t Replicas::first_reachable() {

@@ -29,6 +29,12 @@ class Replicas {
   vpremesh::v1::RemeshService::Stub& stub(size_t i);
 
   void set_deadline(grpc::ClientContext& context) const;
+  // For the first call of a command, to replica i: with one server the call
+  // waits for it to accept a connection (wait_for_server in channel.h), so a
+  // server that comes up a moment late, or a connection attempt that fails
+  // once, does not fail the command. With several, an unreachable one is
+  // passed over instead (first_reachable, the re-attach round robin).
+  void wait_for_single_server(size_t i, grpc::ClientContext& context);
   bool has_deadline() const { return has_deadline_; }
   Clock::time_point deadline() const { return deadline_; }
   bool past_deadline() const { return has_deadline_ && Clock::now() >= deadline_; }

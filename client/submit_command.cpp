@@ -114,6 +114,7 @@ int run_submit(SubmitArgs& a) {
   const std::string& server = replicas.address(target);
   grpc::ClientContext context;
   replicas.set_deadline(context);
+  replicas.wait_for_single_server(target, context);
 
   if (a.no_wait) {
     v1::JobRef ref;

@@ -25,8 +25,15 @@ inline constexpr size_t kChunkBytes = size_t(1) << 20;
 // not null) receives the mesh as read here, the same read as `vpremesh local`'s.
 StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits, Mesh* parsed = nullptr);
 
-// Writes the spec and then the file in chunks. False when the server closed
-// the stream early (a refusal): its status then comes from Finish().
+// Writes the spec and then the file in chunks, waits for the server's
+// response headers, and half-closes. False when the server closed the stream
+// early (a refusal) or the connection failed: the status then comes from
+// Finish().
+//
+// The server sends its headers when the stream opens and accepts an upload
+// only at the half-close; gRPC retries a call only until headers arrive. So
+// until the headers come, gRPC may send the upload again on a new connection
+// (the server has not accepted it); after, it never does (channel.h).
 template <class Writer>
 bool upload(Writer& writer, const vpremesh::v1::JobSpec& spec, const std::vector<uint8_t>& bytes) {
   vpremesh::v1::RemeshRequest request;
@@ -37,6 +44,7 @@ bool upload(Writer& writer, const vpremesh::v1::JobSpec& spec, const std::vector
     request.set_mesh_chunk(bytes.data() + offset, n);
     if (!writer.Write(request)) return false;
   }
+  writer.WaitForInitialMetadata();
   return writer.WritesDone();
 }
 

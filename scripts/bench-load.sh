@@ -9,6 +9,8 @@
 #   scripts/bench-load.sh                       (CPU, build/release, horse and bunny)
 #   BIN=.bundle/bin DEVICE=cuda WORKERS="1 2 4" MODELS=".bundle/models/igea.ply:10000" scripts/bench-load.sh
 # Runs that would start after BUDGET_S seconds are skipped (and listed as such).
+# ADDR=HOST:PORT loads a server that is already running (scripts/soak.sh)
+# instead of starting one per worker count; WORKERS then only labels the rows.
 set -uo pipefail
 BIN=${BIN:-build/release}
 SERVER=${SERVER:-$(ls "$BIN"/vpremesh-server "$BIN"/server/vpremesh-server 2>/dev/null | head -1)}
@@ -22,7 +24,9 @@ OPEN_FACTORS=${OPEN_FACTORS:-"0.9 1.5"}
 OPEN_S=${OPEN_S:-30}
 BUDGET_S=${BUDGET_S:-3600}
 JSON_DIR=${JSON_DIR:-$(mktemp -d)}
-[ -x "$SERVER" ] && [ -x "$CLIENT" ] || { echo "bench-load: no vpremesh-server / vpremesh under $BIN" >&2; exit 2; }
+ADDR=${ADDR:-}
+[ -x "$CLIENT" ] && { [ -n "$ADDR" ] || [ -x "$SERVER" ]; } ||
+  { echo "bench-load: no vpremesh-server / vpremesh under $BIN" >&2; exit 2; }
 mkdir -p "$JSON_DIR"
 t0=$SECONDS
 server_pid=
@@ -38,6 +42,8 @@ j = json.load(open(path))
 l, s = j["latency_ms"], j["split_ms"]
 load = f"C={j['concurrency']}" if j["mode"] == "closed" else f"{j['rate_per_s']:.2f}/s x {j['duration_s']:g} s"
 errors = ", ".join(f"{k} {v}" for k, v in j["errors_by_code"].items()) or "0"
+if j.get("connection_errors"):
+    errors += f"; connection {j['connection_errors']}"
 cells = [workers, model, j["mode"], load, j["requests"], j["completed"], errors, f"{j['throughput_per_s']:.3f}"]
 cells += [f"{l[k]:.0f}" for k in ("p50", "p90", "p99", "p99.9", "max", "mean")]
 cells += [f"{s[k]:.0f}" for k in ("upload", "queue", "stages", "server_other", "transfer_other")]
@@ -63,17 +69,19 @@ echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|-
 stage_runs=()
 skipped=()
 for w in $WORKERS; do
-  log="$JSON_DIR/server-w$w.log"
-  "$SERVER" --listen 127.0.0.1:0 --workers "$w" --device "$DEVICE" >"$log" 2>&1 &
-  server_pid=$!
-  addr=
-  for _ in $(seq 600); do
-    addr=$(grep -o 'listening on [0-9.]*:[0-9]*' "$log" | head -1 | cut -d' ' -f3)
-    [ -n "$addr" ] && break
-    kill -0 "$server_pid" 2>/dev/null || break
-    sleep 0.1
-  done
-  [ -n "$addr" ] || { echo "bench-load: the server did not start:" >&2; cat "$log" >&2; exit 1; }
+  addr=$ADDR
+  if [ -z "$addr" ]; then
+    log="$JSON_DIR/server-w$w.log"
+    "$SERVER" --listen 127.0.0.1:0 --workers "$w" --device "$DEVICE" >"$log" 2>&1 &
+    server_pid=$!
+    for _ in $(seq 600); do
+      addr=$(grep -o 'listening on [0-9.]*:[0-9]*' "$log" | head -1 | cut -d' ' -f3)
+      [ -n "$addr" ] && break
+      kill -0 "$server_pid" 2>/dev/null || break
+      sleep 0.1
+    done
+    [ -n "$addr" ] || { echo "bench-load: the server did not start:" >&2; cat "$log" >&2; exit 1; }
+  fi
   for spec in $MODELS; do
     model=${spec%:*} target=${spec##*:} name=$(basename "${spec%:*}")
     capacity=0 warm=$w last_closed=

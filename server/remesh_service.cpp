@@ -190,6 +190,11 @@ class RemeshReactor final : public grpc::ServerBidiReactor<v1::RemeshRequest, v1
  public:
   RemeshReactor(RemeshServiceImpl& service, grpc::CallbackServerContext* context)
       : service_(service), context_(context), upload_(service, context->peer()) {
+    // Headers first, before any of the upload is read: the client half-closes
+    // only once they arrived, and gRPC stops retrying a call at its headers,
+    // so an upload this server may accept (at the half-close) is never sent
+    // again (client/channel.h).
+    StartSendInitialMetadata();
     StartRead(&request_);
   }
 
@@ -276,6 +281,7 @@ class SubmitReactor final : public grpc::ServerReadReactor<v1::RemeshRequest> {
  public:
   SubmitReactor(RemeshServiceImpl& service, grpc::CallbackServerContext* context, v1::JobRef* response)
       : context_(context), upload_(service, context->peer()), response_(response) {
+    StartSendInitialMetadata();  // as Remesh: the client's retries end here
     StartRead(&request_);
   }
 

@@ -103,9 +103,11 @@ inline CallPlan replays_from_zero() {
 
 class FakeReplica final : public v1::RemeshService::Service {
  public:
-  explicit FakeReplica(FakeJob job = {}) : job_(std::move(job)) {
+  // listen: "127.0.0.1:0" picks a free port; a given one lets a test start
+  // the client before the server.
+  explicit FakeReplica(FakeJob job = {}, const std::string& listen = "127.0.0.1:0") : job_(std::move(job)) {
     grpc::ServerBuilder builder;
-    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port_);
+    builder.AddListeningPort(listen, grpc::InsecureServerCredentials(), &port_);
     builder.RegisterService(this);
     server_ = builder.BuildAndStart();
   }
@@ -122,6 +124,12 @@ class FakeReplica final : public v1::RemeshService::Service {
     plans_.assign(plans.begin(), plans.end());
     then_ = then;
   }
+  // Submit reads the upload, then holds until the client is gone (an
+  // accepted upload whose reply never arrives).
+  void hold_submit() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    hold_submit_ = true;
+  }
   // GetJob and CancelJob answer UNAVAILABLE (a draining replica).
   void refuse_unary() {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -135,6 +143,10 @@ class FakeReplica final : public v1::RemeshService::Service {
   int remesh_calls() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return remesh_calls_;
+  }
+  int submit_calls() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return submit_calls_;
   }
   int unary_calls() const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -156,6 +168,9 @@ class FakeReplica final : public v1::RemeshService::Service {
 
   grpc::Status Remesh(grpc::ServerContext* context,
                       grpc::ServerReaderWriter<v1::JobEvent, v1::RemeshRequest>* stream) override {
+    // As vpremesh-server: headers before reading the upload, which the
+    // client waits for before it half-closes (client/upload.h).
+    stream->SendInitialMetadata();
     v1::RemeshRequest request;
     bool spec = false;
     uint64_t bytes = 0;
@@ -170,6 +185,28 @@ class FakeReplica final : public v1::RemeshService::Service {
     }
     if (!spec) return {grpc::StatusCode::INVALID_ARGUMENT, "no spec"};
     return play(context, 0, [stream](const v1::JobEvent& e) { return stream->Write(e); });
+  }
+
+  grpc::Status Submit(grpc::ServerContext* context, grpc::ServerReader<v1::RemeshRequest>* reader,
+                      v1::JobRef* response) override {
+    reader->SendInitialMetadata();  // as Remesh
+    v1::RemeshRequest request;
+    while (reader->Read(&request)) {
+    }
+    bool hold = false;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++submit_calls_;
+      hold = hold_submit_;
+      holding_ = holding_ || hold;
+    }
+    if (hold) {
+      changed_.notify_all();
+      while (!context->IsCancelled()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      return {grpc::StatusCode::CANCELLED, "the client went away"};
+    }
+    response->set_job_id(job_.id);
+    return grpc::Status::OK;
   }
 
   grpc::Status Watch(grpc::ServerContext* context, const v1::JobRef* ref,
@@ -238,10 +275,10 @@ class FakeReplica final : public v1::RemeshService::Service {
   std::condition_variable changed_;
   std::deque<CallPlan> plans_;
   CallPlan then_;
-  bool refuse_unary_ = false;
+  bool refuse_unary_ = false, hold_submit_ = false;
   bool holding_ = false;
   std::vector<uint64_t> watch_from_;
-  int remesh_calls_ = 0, unary_calls_ = 0, cancel_calls_ = 0;
+  int remesh_calls_ = 0, submit_calls_ = 0, unary_calls_ = 0, cancel_calls_ = 0;
   uint64_t uploaded_bytes_ = 0;
 };
 

@@ -1,7 +1,8 @@
 // A TCP relay in front of a server that can die like a machine does: cut()
 // (or the byte limit given to the constructor) resets every connection
 // through it and refuses new ones, so that the client sees the transport fail,
-// not a status the server chose to send.
+// not a status the server chose to send; reset_connections() resets the open
+// ones only, as a network hiccup would.
 #pragma once
 
 #include <arpa/inet.h>
@@ -42,6 +43,10 @@ class TcpRelay {
   std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
   uint64_t bytes_to_client() const { return to_client_; }
 
+  // Resets the connections open now, as a network hiccup does, and goes on
+  // relaying new ones: a client that connects again reaches the server.
+  void reset_connections() { ++generation_; }
+
   void cut() {
     dead_ = true;
     if (acceptor_.joinable()) acceptor_.join();  // after it, nothing adds to relays_
@@ -78,15 +83,15 @@ class TcpRelay {
         ::close(backend);
         continue;
       }
-      relays_.emplace_back([this, client, backend] { relay(client, backend); });
+      relays_.emplace_back([this, client, backend, g = generation_.load()] { relay(client, backend, g); });
     }
     ::close(listener_);  // from now on, connecting is refused
   }
 
-  void relay(int client, int backend) {
+  void relay(int client, int backend, int generation) {
     char buf[16384];
     bool open = true;
-    while (open && !dead_) {
+    while (open && !dead_ && generation_ == generation) {
       pollfd p[2] = {{client, POLLIN, 0}, {backend, POLLIN, 0}};
       if (::poll(p, 2, 20) <= 0) continue;
       for (int i = 0; i < 2 && open; ++i) {
@@ -118,6 +123,7 @@ class TcpRelay {
   int listener_ = -1;
   int port_ = 0;
   std::atomic<bool> dead_{false};
+  std::atomic<int> generation_{0};  // connections of an older one are reset
   std::atomic<uint64_t> to_client_{0};
   std::thread acceptor_;
   std::vector<std::thread> relays_;  // one per connection

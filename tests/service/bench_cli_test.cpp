@@ -45,6 +45,31 @@ TEST(LoadStats, NearestRankPercentilesAreMeasuredValuesInOrder) {
   EXPECT_EQ(cli::percentiles({}).count, 0u);
 }
 
+// A request that never reached the server is a connection error: out of
+// errors and errors_by_code, which are the server's answers.
+TEST(LoadStats, ConnectionErrorsAreCountedApart) {
+  std::vector<cli::RequestSample> samples(4);
+  samples[0] = {true, "", "", 100, 0, 5, 20, 60, {{"render", 30}}, 1000};
+  samples[1].error_code = "UNAVAILABLE";
+  samples[1].error = "failed to connect to all addresses";
+  samples[1].connection_failure = true;
+  samples[2] = samples[1];
+  samples[2].error = "second";
+  samples[3].error_code = "RESOURCE_EXHAUSTED";
+  samples[3].error = "queue full";
+  const cli::LoadReport r = cli::summarize_load(samples, 1.0);
+  EXPECT_EQ(r.requests, 4u);
+  EXPECT_EQ(r.completed, 1u);
+  EXPECT_EQ(r.errors, 1u);
+  EXPECT_EQ(r.connection_errors, 2u);
+  EXPECT_EQ(r.connection_error_example, "failed to connect to all addresses");
+  EXPECT_EQ(r.errors_by_code.count("UNAVAILABLE"), 0u);
+  const nlohmann::json j = cli::load_report_json(r);
+  EXPECT_EQ(j["connection_errors"], 2);
+  EXPECT_EQ(j["errors"], 1);
+  EXPECT_NE(cli::format_load_report(r).find("errors 1, connection errors 2"), std::string::npos);
+}
+
 // The split of the mean adds up to the mean latency; errors count by code and
 // stay out of the latencies.
 TEST(LoadStats, SplitAddsUpAndErrorsAreCountedByCode) {
