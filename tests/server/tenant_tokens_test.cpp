@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "server/authenticator.h"
+
 namespace vpr::service {
 namespace {
 
@@ -45,6 +47,12 @@ TEST(TenantTokens, BadLinesNameTheFileAndLineButNotTheWord) {
   EXPECT_FALSE(TenantTokens::parse("alpha " + h + "\nbeta " + h + "\n", "t").ok());  // one token, two tenants
   EXPECT_FALSE(TenantTokens::parse("alpha " + h + " max_jobs=2\nalpha " + to_hex(sha256("u")) + "\n", "t").ok());
   EXPECT_FALSE(TenantTokens::load("/nonexistent/tokens").ok());
+}
+
+TEST(Authenticator, AddressWithoutPort) {
+  EXPECT_EQ(address_without_port("ipv4:10.1.2.3:5678"), "ipv4:10.1.2.3");
+  EXPECT_EQ(address_without_port("ipv6:[::1]:80"), "ipv6:[::1]");
+  EXPECT_EQ(address_without_port("unix:/tmp/s"), "unix:/tmp/s");
 }
 
 }  // namespace
