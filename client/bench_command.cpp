@@ -32,6 +32,7 @@
 #include <thread>
 #include <vector>
 
+#include "channel_security.h"
 #include "commands.h"
 #include "exit_codes.h"
 #include "grpc_errors.h"
@@ -73,7 +74,7 @@ std::shared_ptr<grpc::Channel> own_connection(const std::string& server) {
   args.SetMaxReceiveMessageSize(8 << 20);  // as make_channel: chunks of 1 MiB plus the envelope
   args.SetMaxSendMessageSize(8 << 20);
   args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-  return grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args);
+  return secure_channel(server, args);
 }
 
 // One Remesh call, upload to last event. `intended`: when the schedule

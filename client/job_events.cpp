@@ -5,6 +5,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "channel_security.h"
 #include "exit_codes.h"
 #include "grpc_errors.h"
 #include "io/mesh_io.h"
@@ -206,7 +207,7 @@ std::shared_ptr<grpc::Channel> make_channel(const std::string& server) {
   // --reattach-timeout waits for it.
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 2000);
-  return grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args);
+  return secure_channel(server, args);
 }
 
 void set_deadline(grpc::ClientContext& context, double seconds) {
