@@ -42,8 +42,6 @@ int run(const ServerOptions& o) {
   if (Status s = check_server_options(o); !s.ok()) return fail(s.message(), 2);
   Authenticator auth(o.auth_tokens);
   if (Status s = auth.reload(); !s.ok()) return fail(s.message(), 2);
-  auto credentials = server_credentials(o);
-  if (!credentials.ok()) return fail(credentials.status().message(), 2);
   if (auth.enabled() && o.tls_cert.empty() && !is_loopback_host(host_of(o.listen)))
     spdlog::warn("--auth-tokens without --tls-cert: tokens cross the network in plaintext (fine behind a TLS proxy)");
   if (o.insecure && !auth.enabled())
@@ -54,6 +52,10 @@ int run(const ServerOptions& o) {
   sigset_t signals = block_stop_signals();
   sigaddset(&signals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // Only now: making credentials starts gRPC's own threads, which must
+  // inherit the blocked signals (else a SIGTERM may kill instead of drain).
+  auto credentials = server_credentials(o);
+  if (!credentials.ok()) return fail(credentials.status().message(), 2);
 
   // Devices and workers.
   int gpus = 0;
