@@ -191,8 +191,16 @@ TEST_F(AuthTest, WithoutTokensTheQuotaCountsTheSourceAddressNotTheConnection) {
 TEST_F(AuthTest, TlsRefusesPlaintextWrongCaAndMissingClientCertificates) {
   ASSERT_TRUE(make_certificates(dir_.string())) << "openssl failed";
   ServerProcess tls({"--tls-cert", path("server.pem"), "--tls-key", path("server.key"), "--auth-tokens",
-                     path("tokens")});
+                     path("tokens"), "--health-listen", "127.0.0.1:0"});
   ASSERT_TRUE(tls.started()) << tls.log();
+  // Probes speak neither TLS nor tokens: --health-listen answers them in plaintext.
+  const std::string health_key = "vpremesh-server health on ";
+  const size_t at = tls.log().find(health_key);
+  ASSERT_NE(at, std::string::npos) << tls.log();
+  const std::string health_address =
+      tls.log().substr(at + health_key.size(), tls.log().find('\n', at) - at - health_key.size());
+  EXPECT_EQ(health(health_address), grpc::health::v1::HealthCheckResponse::SERVING) << health_address;
+  EXPECT_EQ(health(tls.address()), grpc::health::v1::HealthCheckResponse::UNKNOWN);  // TLS only there
   const std::string unknown_job = "j-0000000000000000";
   const std::string s = " --deadline 10 --token-file " + path("a.token") + " --server " + tls.address();
   EXPECT_EQ(run_cli("status " + unknown_job + s).code, 5);  // plaintext: no connection
