@@ -566,11 +566,11 @@ class CheckerSelfTest(unittest.TestCase):
         self.assertEqual(check_flags("vpremesh-server", ["--device=cpu", "--listen", "0.0.0.0:1"]), [])
 
     def test_probe_and_listen_mismatch(self):
-        self.server["readinessProbe"]["grpc"]["port"] = 50052
-        self.assertTrue(any("50052" in p for p in check_container_ports(self.server, "vpremesh-server")))
+        self.server["readinessProbe"]["grpc"]["port"] = 50053
+        self.assertTrue(any("50053" in p for p in check_container_ports(self.server, "vpremesh-server")))
         self.server["readinessProbe"]["grpc"]["port"] = "grpc"
         self.assertTrue(check_container_ports(self.server, "vpremesh-server"))
-        self.server["readinessProbe"]["grpc"]["port"] = 50051
+        self.server["readinessProbe"]["grpc"]["port"] = 50052
         self.server["args"] = [a.replace("0.0.0.0:9090", "0.0.0.0:9191") for a in self.server["args"]]
         self.assertTrue(check_container_ports(self.server, "vpremesh-server"))
 
