@@ -64,7 +64,8 @@ stage_runs=()
 skipped=()
 for w in $WORKERS; do
   log="$JSON_DIR/server-w$w.log"
-  "$SERVER" --listen 127.0.0.1:0 --workers "$w" --device "$DEVICE" >"$log" 2>&1 &
+  # All the load comes from one address, and --max-jobs-per-client counts per address.
+  "$SERVER" --listen 127.0.0.1:0 --max-jobs-per-client 4096 --workers "$w" --device "$DEVICE" >"$log" 2>&1 &
   server_pid=$!
   addr=
   for _ in $(seq 600); do
