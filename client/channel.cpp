@@ -1,5 +1,7 @@
 #include "channel.h"
 
+#include "channel_security.h"
+
 #include <grpc/support/time.h>
 
 namespace vpr::cli {
@@ -41,7 +43,7 @@ std::shared_ptr<grpc::Channel> make_channel(const std::string& server, Connectio
   args.SetInt(GRPC_ARG_ENABLE_RETRIES, 1);
   args.SetServiceConfigJSON(kServiceConfig);
   if (connection == Connection::kOwn) args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-  return grpc::CreateCustomChannel(server, grpc::InsecureChannelCredentials(), args);
+  return secure_channel(server, args);  // TLS and the tenant's token, when the command was given them
 }
 
 bool wait_for_server(grpc::Channel& channel, grpc::ClientContext& context) {

@@ -24,8 +24,8 @@ enum class Connection {
   kOwn,     // a connection of this channel's own (bench: one per client)
 };
 
-// A channel to `server` (host:port, insecure: the service runs inside a
-// trusted network) whose messages may be as large as our chunks need, which
+// A channel to `server` (host:port; with TLS and the bearer token when the
+// command has them: channel_security.h) whose messages may be as large as our chunks need, which
 // reconnects within 2 s of a restarted server coming back, and whose calls
 // are retried on UNAVAILABLE before they are committed (see above).
 std::shared_ptr<grpc::Channel> make_channel(const std::string& server, Connection connection = Connection::kShared);

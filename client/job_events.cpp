@@ -5,6 +5,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "channel_security.h"
 #include "exit_codes.h"
 #include "grpc_errors.h"
 #include "io/mesh_io.h"

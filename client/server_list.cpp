@@ -1,5 +1,7 @@
 #include "server_list.h"
 
+#include "channel_security.h"
+
 #include <cassert>
 #include <cctype>
 
@@ -103,6 +105,7 @@ void add_server_list_flags(CLI::App* cmd, ServerFlags& flags) {
                   "Give up after this many seconds, re-attachments included (0 = never)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  add_channel_security_flags(cmd);
 }
 
 void add_reattach_flag(CLI::App* cmd, ServerFlags& flags) {
@@ -127,6 +130,7 @@ void add_server_flags(CLI::App* cmd, std::string& server, double& deadline_s) {
   cmd->add_option("--deadline", deadline_s, "Give up after this many seconds (0 = never)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  add_channel_security_flags(cmd);
 }
 
 }  // namespace vpr::cli

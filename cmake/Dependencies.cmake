@@ -31,6 +31,8 @@ find_program(VPR_GRPC_CPP_PLUGIN grpc_cpp_plugin)
 find_library(VPR_GRPCPP_REFLECTION grpc++_reflection)
 # The Redis Streams job queue (server/redis_*, vpremesh-worker): hiredis 0.14.
 pkg_check_modules(HIREDIS IMPORTED_TARGET hiredis)
+# SHA-256 and constant-time comparison of bearer tokens (server/tenant_tokens.cpp).
+find_package(OpenSSL REQUIRED COMPONENTS Crypto)
 
 if(VPR_BUILD_TESTS)
   find_package(GTest REQUIRED)

@@ -22,7 +22,8 @@ trap 'kill "${pids[@]}" 2>/dev/null; wait 2>/dev/null; rm -rf "$dir"' EXIT
 
 declare -A address
 for mode in thread process; do
-  "$SERVER" --listen 127.0.0.1:0 --workers 1 --device "$DEVICE" --isolation "$mode" >"$dir/$mode.log" 2>&1 &
+  # All the load comes from one address, and --max-jobs-per-client counts per address.
+  "$SERVER" --listen 127.0.0.1:0 --max-jobs-per-client 4096 --workers 1 --device "$DEVICE" --isolation "$mode" >"$dir/$mode.log" 2>&1 &
   pids+=($!)
   for _ in $(seq 600); do
     address[$mode]=$(sed -n 's/^vpremesh-server listening on \([^ ]*\).*/\1/p' "$dir/$mode.log")

@@ -72,7 +72,8 @@ for w in $WORKERS; do
   addr=$ADDR
   if [ -z "$addr" ]; then
     log="$JSON_DIR/server-w$w.log"
-    "$SERVER" --listen 127.0.0.1:0 --workers "$w" --device "$DEVICE" >"$log" 2>&1 &
+    # All the load comes from one address, and --max-jobs-per-client counts per address.
+    "$SERVER" --listen 127.0.0.1:0 --max-jobs-per-client 4096 --workers "$w" --device "$DEVICE" >"$log" 2>&1 &
     server_pid=$!
     for _ in $(seq 600); do
       addr=$(grep -o 'listening on [0-9.]*:[0-9]*' "$log" | head -1 | cut -d' ' -f3)

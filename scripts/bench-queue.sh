@@ -37,7 +37,8 @@ wait_line() {
   echo "bench-queue: '$2' never appeared in $1" >&2; cat "$1" >&2; exit 1
 }
 start_server() {  # FLAGS... -> prints the address
-  "$SERVER" --listen 127.0.0.1:0 --device "$DEVICE" --renderer "$RENDERER" "$@" >"$work/server.log" 2>&1 &
+  # All the load comes from one address, and --max-jobs-per-client counts per address.
+  "$SERVER" --listen 127.0.0.1:0 --max-jobs-per-client 4096 --device "$DEVICE" --renderer "$RENDERER" "$@" >"$work/server.log" 2>&1 &
   pids+=($!)
   wait_line "$work/server.log" "listening on " | sed 's/listening on //'
 }

@@ -12,7 +12,7 @@ packages=(
   libpng-dev nlohmann-json3-dev libcli11-dev libmeshoptimizer-dev
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   python3-grpcio python3-protobuf python3-yaml
-  redis-server libhiredis-dev
+  redis-server libhiredis-dev libssl-dev openssl
 )
 # `install-deps.sh sanitize` (make sanitize, scripts/fuzz.sh): clang, its
 # sanitizer and libFuzzer runtimes, and llvm-symbolizer for readable reports.

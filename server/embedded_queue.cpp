@@ -84,8 +84,8 @@ std::vector<std::shared_ptr<EmbeddedQueue::Slot>> EmbeddedQueue::append_locked(R
     r.finished = now();
     r.mesh = {};
     r.mesh.shrink_to_fit();
-    auto it = unfinished_by_peer_.find(r.peer);
-    if (it != unfinished_by_peer_.end() && --it->second == 0) unfinished_by_peer_.erase(it);
+    auto it = unfinished_by_client_.find(r.client);
+    if (it != unfinished_by_client_.end() && --it->second == 0) unfinished_by_client_.erase(it);
     *state_changed = true;
   }
   r.events.push_back(std::move(event));
@@ -111,14 +111,15 @@ StatusOr<std::string> EmbeddedQueue::submit(JobSubmission job) {
     if (draining_ || closed_)
       return unavailable("the server is shutting down and accepts no new jobs; retry elsewhere");
     VPR_RETURN_IF_ERROR(check_queue_length(options_.limits, waiting_.size()));
-    auto peer = unfinished_by_peer_.find(job.peer);
-    VPR_RETURN_IF_ERROR(
-        check_client_jobs(options_.limits, job.peer, peer == unfinished_by_peer_.end() ? 0 : peer->second));
+    auto client = unfinished_by_client_.find(job.client);
+    VPR_RETURN_IF_ERROR(check_client_jobs(client_job_limit(options_.limits, job.max_jobs), job.client,
+                                          client == unfinished_by_client_.end() ? 0 : client->second));
 
     auto r = std::make_unique<Record>();
     id = new_id();
     r->id = id;
-    r->peer = job.peer;
+    r->tenant = job.tenant;
+    r->client = job.client;
     r->label = job.spec.label();
     r->key = {-job.spec.priority(), next_order_++};
     r->spec = std::move(job.spec);
@@ -130,14 +131,14 @@ StatusOr<std::string> EmbeddedQueue::submit(JobSubmission job) {
     Record& rec = *r;
     jobs_.emplace(id, std::move(r));
     waiting_.emplace(rec.key, &rec);
-    ++unfinished_by_peer_[rec.peer];
+    ++unfinished_by_client_[rec.client];
     position = position_locked(rec);
     v1::JobEvent queued;
     queued.mutable_queued()->set_position(position);
     bool changed = false;
     slots = append_locked(rec, std::move(queued), &changed);
     spdlog::info("job {} queued: label '{}', {} bytes, target {} vertices, priority {}, position {}, client {}", id,
-                 rec.label, rec.mesh.size(), rec.spec.target_vertices(), rec.spec.priority(), position, rec.peer);
+                 rec.label, rec.mesh.size(), rec.spec.target_vertices(), rec.spec.priority(), position, rec.client);
   }
   claimable_.notify_one();
   notify(id, v1::JOB_STATE_QUEUED, true, slots);
@@ -227,6 +228,13 @@ StatusOr<v1::JobStatus> EmbeddedQueue::status(const std::string& job_id) {
   auto it = jobs_.find(job_id);
   if (it == jobs_.end()) return not_found(job_id);
   return status_locked(*it->second);
+}
+
+Status EmbeddedQueue::check_owner(const std::string& job_id, const std::string& tenant) {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto it = jobs_.find(job_id);
+  if (it == jobs_.end() || it->second->tenant != tenant) return not_found(job_id);
+  return Status::Ok();
 }
 
 StatusOr<EventBatch> EmbeddedQueue::events(const std::string& job_id, uint64_t from, size_t max_events) {

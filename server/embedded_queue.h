@@ -34,6 +34,7 @@ class EmbeddedQueue final : public JobQueue {
   std::optional<Status> cancellation(const std::string& job_id) override;
   StatusOr<v1::JobStatus> cancel(const std::string& job_id, const Status& reason) override;
   StatusOr<v1::JobStatus> status(const std::string& job_id) override;
+  Status check_owner(const std::string& job_id, const std::string& tenant) override;
   StatusOr<EventBatch> events(const std::string& job_id, uint64_t from, size_t max_events) override;
   StatusOr<uint64_t> subscribe(const std::string& job_id, Listener listener) override;
   void unsubscribe(const std::string& job_id, uint64_t token) override;
@@ -47,7 +48,7 @@ class EmbeddedQueue final : public JobQueue {
   // (-priority, submission order): the set's first entry runs next.
   using Key = std::tuple<int, uint64_t>;
   struct Record {
-    std::string id, peer, label;
+    std::string id, tenant, client, label;
     v1::JobSpec spec;
     std::vector<uint8_t> mesh;  // until claimed or cancelled
     Key key{};
@@ -75,7 +76,7 @@ class EmbeddedQueue final : public JobQueue {
   std::condition_variable claimable_;
   std::map<std::string, std::unique_ptr<Record>> jobs_;
   std::map<Key, Record*> waiting_;
-  std::map<std::string, size_t> unfinished_by_peer_;
+  std::map<std::string, size_t> unfinished_by_client_;
   uint64_t next_order_ = 0, next_token_ = 1;
   bool draining_ = false, closed_ = false;
   uint64_t id_salt_ = 0;

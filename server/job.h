@@ -21,7 +21,12 @@ using Clock = std::chrono::steady_clock;
 struct JobSubmission {
   v1::JobSpec spec;
   std::vector<uint8_t> mesh;  // the Draco file, whole
-  std::string peer;           // the client connection (grpc::ServerContext::peer()), for the per-client limit
+  // Who submitted it (server/authenticator.h): the owning tenant ("" without
+  // --auth-tokens), the key --max-jobs-per-client counts under, and that
+  // client's limit (0: --max-jobs-per-client).
+  std::string tenant;
+  std::string client;
+  size_t max_jobs = 0;
 };
 
 // What JobQueue::claim hands to a worker. The queue gives up the mesh bytes

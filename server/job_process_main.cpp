@@ -60,6 +60,7 @@ class RelayQueue : public JobQueue {
   std::optional<ClaimedJob> claim(const std::string&) override { return std::nullopt; }
   StatusOr<v1::JobStatus> cancel(const std::string&, const Status&) override { return unsupported(); }
   StatusOr<v1::JobStatus> status(const std::string&) override { return unsupported(); }
+  Status check_owner(const std::string&, const std::string&) override { return unsupported(); }
   StatusOr<EventBatch> events(const std::string&, uint64_t, size_t) override { return unsupported(); }
   StatusOr<uint64_t> subscribe(const std::string&, Listener) override { return unsupported(); }
   void unsubscribe(const std::string&, uint64_t) override {}

@@ -92,6 +92,12 @@ class JobQueue {
 
   virtual StatusOr<v1::JobStatus> status(const std::string& job_id) = 0;
 
+  // OK when the job exists and belongs to `tenant` (the one that submitted
+  // it; "" without authentication). Another tenant's job is NOT_FOUND with
+  // the very message of an unknown id, so that a guessed id is not
+  // confirmed.
+  virtual Status check_owner(const std::string& job_id, const std::string& tenant) = 0;
+
   // Up to max_events events from sequence `from` on, without blocking.
   virtual StatusOr<EventBatch> events(const std::string& job_id, uint64_t from, size_t max_events) = 0;
 

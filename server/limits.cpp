@@ -56,11 +56,12 @@ Status check_queue_length(const ServerLimits& limits, size_t waiting) {
   return Status::Ok();
 }
 
-Status check_client_jobs(const ServerLimits& limits, const std::string& peer, size_t unfinished) {
-  if (unfinished >= limits.max_jobs_per_client)
-    return resource_exhausted("client " + peer + " already has " + std::to_string(unfinished) +
-                              " unfinished jobs; the per-client limit is " +
-                              std::to_string(limits.max_jobs_per_client) + " (--max-jobs-per-client)");
+Status check_client_jobs(size_t limit, const std::string& client, size_t unfinished) {
+  if (unfinished >= limit)
+    return resource_exhausted("client " + client + " already has " + std::to_string(unfinished) +
+                              " unfinished jobs; its limit is " + std::to_string(limit) +
+                              " (--max-jobs-per-client, or the tenant's max_jobs= in --auth-tokens); retry when one "
+                              "ends");
   return Status::Ok();
 }
 

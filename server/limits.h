@@ -21,7 +21,7 @@ struct ServerLimits {
   size_t max_faces = MeshLimits{}.max_faces;          // --max-faces: input faces
   uint32_t max_target_vertices = kMaxTargetVertices;  // --max-target-vertices, at most the pipeline's
   size_t max_queue = 64;                              // --max-queue: jobs waiting (not running)
-  size_t max_jobs_per_client = 4;                     // --max-jobs-per-client: unfinished jobs per connection
+  size_t max_jobs_per_client = 4;                     // --max-jobs-per-client: unfinished jobs per tenant or address
 
   MeshLimits mesh_limits() const { return {max_vertices, max_faces}; }
 };
@@ -37,8 +37,13 @@ Status check_upload_complete(uint64_t received, uint64_t declared, const uint8_t
 Status check_target(const ServerLimits& limits, uint32_t target_vertices);
 // RESOURCE_EXHAUSTED when `waiting` jobs already fill the queue.
 Status check_queue_length(const ServerLimits& limits, size_t waiting);
-// RESOURCE_EXHAUSTED when the client already has that many unfinished jobs.
-Status check_client_jobs(const ServerLimits& limits, const std::string& peer, size_t unfinished);
+// The unfinished jobs one client may have: its own limit (a tenant's
+// max_jobs= in --auth-tokens) or --max-jobs-per-client.
+inline size_t client_job_limit(const ServerLimits& limits, size_t own_limit) {
+  return own_limit > 0 ? own_limit : limits.max_jobs_per_client;
+}
+// RESOURCE_EXHAUSTED when the client already has `limit` unfinished jobs.
+Status check_client_jobs(size_t limit, const std::string& client, size_t unfinished);
 // Names the --max-vertices / --max-faces flags in a mesh parser's limit error.
 Status explain_mesh_limit(const Status& parse_status, const ServerLimits& limits);
 

@@ -17,12 +17,14 @@
 #include <cstdlib>
 #include <memory>
 
+#include "server/authenticator.h"
 #include "server/embedded_queue.h"
 #include "server/job_process.h"
 #include "server/metrics_http.h"
 #include "server/process_main.h"
 #include "server/redis_queue.h"
 #include "server/remesh_service.h"
+#include "server/server_credentials.h"
 #include "server/server_options.h"
 #include "server/service_metrics.h"
 #include "server/worker_pool.h"
@@ -38,9 +40,22 @@ constexpr const char* kServiceName = "vpremesh.v1.RemeshService";
 int run(const ServerOptions& o) {
   spdlog::set_level(spdlog::level::from_str(o.log_level));
   if (Status s = check_server_options(o); !s.ok()) return fail(s.message(), 2);
+  Authenticator auth(o.auth_tokens);
+  if (Status s = auth.reload(); !s.ok()) return fail(s.message(), 2);
+  if (auth.enabled() && o.tls_cert.empty() && !is_loopback_host(host_of(o.listen)))
+    spdlog::warn("--auth-tokens without --tls-cert: tokens cross the network in plaintext (fine behind a TLS proxy)");
+  if (o.insecure && !auth.enabled())
+    spdlog::warn("--insecure: no authentication; anyone who reaches {} may run jobs and read any result", o.listen);
 
-  // Every thread started from here on inherits the blocked signals.
-  const sigset_t signals = block_stop_signals();
+  // Every thread started from here on inherits the blocked signals. SIGHUP
+  // re-reads --auth-tokens.
+  sigset_t signals = block_stop_signals();
+  sigaddset(&signals, SIGHUP);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // Only now: making credentials starts gRPC's own threads, which must
+  // inherit the blocked signals (else a SIGTERM may kill instead of drain).
+  auto credentials = server_credentials(o);
+  if (!credentials.ok()) return fail(credentials.status().message(), 2);
 
   // Devices and workers.
   int gpus = 0;
@@ -119,25 +134,41 @@ int run(const ServerOptions& o) {
     if (!redis && pool.live() == 0) return unavailable("no worker can run jobs on this server: " + why);
     return Status::Ok();
   };
+  config.auth = &auth;
   RemeshServiceImpl service(*queue, config, &metrics);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(o.listen, grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(o.listen, *credentials, &port);
   builder.RegisterService(&service);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) return fail("cannot listen on " + o.listen + " (--listen): address in use or invalid", 2);
+  // --health-listen: the health service alone, in plaintext, for probes that
+  // speak neither TLS nor tokens (Kubernetes' gRPC probes).
+  std::unique_ptr<grpc::Server> health_server;
+  int health_port = 0;
+  if (!o.health_listen.empty()) {
+    grpc::ServerBuilder health_builder;
+    health_builder.AddListeningPort(o.health_listen, grpc::InsecureServerCredentials(), &health_port);
+    health_server = health_builder.BuildAndStart();
+    if (!health_server || health_port == 0)
+      return fail("cannot listen on " + o.health_listen + " (--health-listen): address in use or invalid", 2);
+  }
+  std::vector<grpc::Server*> servers = {server.get()};
+  if (health_server) servers.push_back(health_server.get());
   // Both "" (the process) and the service. With a shared queue, a Redis
   // outage turns only the service NOT_SERVING (readiness: no new jobs here)
   // while "" stays SERVING (liveness: restarting would not bring Redis back).
   auto set_serving = [&](bool serving) {
-    server->GetHealthCheckService()->SetServingStatus(serving);
-    server->GetHealthCheckService()->SetServingStatus(kServiceName, serving);
+    for (grpc::Server* s : servers) {
+      s->GetHealthCheckService()->SetServingStatus(serving);
+      s->GetHealthCheckService()->SetServingStatus(kServiceName, serving);
+    }
   };
   auto set_queue_serving = [&](bool serving) {
-    server->GetHealthCheckService()->SetServingStatus(kServiceName, serving);
+    for (grpc::Server* s : servers) s->GetHealthCheckService()->SetServingStatus(kServiceName, serving);
   };
   // Serving while some worker can run jobs (embedded) or Redis answers.
   Status queue_health = queue->health();
@@ -149,9 +180,14 @@ int run(const ServerOptions& o) {
     set_serving(live > 0);
   }
 
-  // The parseable line tests and scripts wait for.
+  // The parseable lines tests and scripts wait for (health first: a test
+  // that waits for "listening on" then finds both).
+  if (health_server)
+    std::printf("vpremesh-server health on %s:%d\n", host_of(o.health_listen).c_str(), health_port);
   std::printf("vpremesh-server listening on %s:%d\n", host_of(o.listen).c_str(), port);
   std::fflush(stdout);
+  spdlog::info("gRPC {}; {}", o.tls_cert.empty() ? "in plaintext" : o.tls_client_ca.empty() ? "over TLS" : "over mutual TLS",
+               auth.enabled() ? "tenants need a bearer token (--auth-tokens)" : "no authentication");
   spdlog::info(
       "listening on {}:{} with {} worker(s); limits: upload {} MiB, {} vertices, {} faces, queue {}, "
       "{} jobs per client; results kept {} s",
@@ -170,8 +206,11 @@ int run(const ServerOptions& o) {
   }
 
   // Wait for SIGTERM / SIGINT, forgetting expired results and checking the
-  // queue's store once a second.
-  const int signal_number = wait_for_stop_signal(signals, [&] {
+  // queue's store once a second; SIGHUP re-reads the tokens (running jobs and
+  // open streams are untouched: a call is checked when it starts).
+  auto tick = [&] {
+    if (auth.changed_on_disk())
+      if (Status s = auth.reload(); !s.ok()) spdlog::error("{}; the tokens read before stay in force", s.message());
     queue->expire();
     if (!redis) return;
     Status h = queue->health();
@@ -183,7 +222,15 @@ int run(const ServerOptions& o) {
       set_queue_serving(h.ok());
     }
     queue_health = h;
-  });
+  };
+  int signal_number = 0;
+  while ((signal_number = wait_for_stop_signal(signals, tick)) == SIGHUP) {
+    if (!auth.enabled()) {
+      spdlog::info("SIGHUP: no --auth-tokens to re-read");
+    } else if (Status s = auth.reload(); !s.ok()) {
+      spdlog::error("SIGHUP: {}; the tokens read before stay in force", s.message());
+    }
+  }
 
   spdlog::info("{}: draining (grace {} s)", signal_number == SIGTERM ? "SIGTERM" : "SIGINT", o.drain_grace_s);
   draining = true;
@@ -207,6 +254,7 @@ int run(const ServerOptions& o) {
   }
   // Let open streams send their last events, then end them.
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  if (health_server) health_server->Shutdown(std::chrono::system_clock::now());
   http.stop();
   queue->close();
   if (pool.busy() > 0) {

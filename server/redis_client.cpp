@@ -21,23 +21,35 @@ bool all_digits(const std::string& s) {
 }  // namespace
 
 std::string RedisEndpoint::url() const {
-  return "redis://" + host + ":" + std::to_string(port) + (db ? "/" + std::to_string(db) : "");
+  return "redis://" + (user.empty() ? "" : user + "@") + host + ":" + std::to_string(port) +
+         (db ? "/" + std::to_string(db) : "");
 }
 
 StatusOr<RedisEndpoint> parse_redis_url(const std::string& url) {
   const std::string scheme = "redis://";
+  // Messages show the URL with its password blanked out: they reach logs.
+  std::string shown = url;
+  if (const size_t at = shown.rfind('@'), colon = shown.find(':', scheme.size());
+      at != std::string::npos && colon != std::string::npos && colon < at)
+    shown.replace(colon + 1, at - colon - 1, "***");
   auto bad = [&](const std::string& why) {
-    return invalid_argument("queue URL '" + url + "': " + why + " (expected redis://[:PASSWORD@]HOST[:PORT][/DB])");
+    return invalid_argument("queue URL '" + shown + "': " + why +
+                            " (expected redis://[[USER]:PASSWORD@]HOST[:PORT][/DB])");
   };
+  if (url.rfind("rediss://", 0) == 0)
+    return bad("TLS to Redis (rediss://) needs hiredis 1.x with SSL, and Debian 12 ships 0.14; reach Redis through "
+               "a TLS tunnel on this host (docs/security.md)");
   if (url.rfind(scheme, 0) != 0) return bad("must start with redis://");
   std::string rest = url.substr(scheme.size());
   RedisEndpoint e;
   if (const size_t at = rest.rfind('@'); at != std::string::npos) {
     std::string auth = rest.substr(0, at);
     rest = rest.substr(at + 1);
-    // Redis 6 ACL users are not supported: only ":PASSWORD" (the default user).
-    if (auth.empty() || auth[0] != ':') return bad("credentials must be ':PASSWORD'");
-    e.password = auth.substr(1);
+    const size_t colon = auth.find(':');
+    if (colon == std::string::npos || colon + 1 == auth.size())
+      return bad("credentials must be ':PASSWORD' or 'USER:PASSWORD'");
+    e.user = auth.substr(0, colon);
+    e.password = auth.substr(colon + 1);
   }
   if (const size_t slash = rest.find('/'); slash != std::string::npos) {
     const std::string db = rest.substr(slash + 1);
@@ -142,7 +154,10 @@ StatusOr<redisContext*> RedisClient::connect() {
     return Status::Ok();
   };
   Status s;
-  if (!endpoint_.password.empty()) s = setup({"AUTH", endpoint_.password});
+  if (!endpoint_.user.empty())
+    s = setup({"AUTH", endpoint_.user, endpoint_.password});  // a Redis 6 ACL user
+  else if (!endpoint_.password.empty())
+    s = setup({"AUTH", endpoint_.password});
   if (s.ok() && endpoint_.db != 0) s = setup({"SELECT", std::to_string(endpoint_.db)});
   if (!s.ok()) {
     redisFree(c);

@@ -19,13 +19,15 @@
 
 namespace vpr::service {
 
-// redis://[:PASSWORD@]HOST[:PORT][/DB]
+// redis://[[USER]:PASSWORD@]HOST[:PORT][/DB]: USER is a Redis 6 ACL user
+// (AUTH USER PASSWORD); without it, the default user (AUTH PASSWORD).
 struct RedisEndpoint {
   std::string host;
   int port = 6379;
   int db = 0;
+  std::string user;
   std::string password;
-  // The URL without the password, for messages and logs.
+  // The URL without the password (the user is kept), for messages and logs.
   std::string url() const;
 };
 

@@ -177,7 +177,8 @@ StatusOr<std::string> RedisQueue::submit(JobSubmission job) {
   const std::string now = std::to_string(unix_ms());
   const std::string result_ttl = std::to_string(std::max<int64_t>(1000, options_.result_ttl.count()));
   const std::string max_queue = std::to_string(options_.limits.max_queue);
-  const std::string max_client = std::to_string(options_.limits.max_jobs_per_client);
+  const size_t client_limit = client_job_limit(options_.limits, job.max_jobs);
+  const std::string max_client = std::to_string(client_limit);
   const std::string queued_bytes = serialize(queued);
   const std::string prio = std::to_string(priority);
   std::vector<std::string> keys = {key("job:", id), key("upload:", id), key("events:", id), clients_key_, stream,
@@ -187,18 +188,18 @@ StatusOr<std::string> RedisQueue::submit(JobSubmission job) {
                                   std::string_view(reinterpret_cast<const char*>(job.mesh.data()), job.mesh.size()),
                                   options_.upload_ttl));
   auto r = run(lua::kSubmit, keys,
-               {id, spec, job.peer, job.spec.label(), prio, now, max_queue, max_client, queued_bytes, result_ttl,
-                kGroup});
+               {id, spec, job.client, job.spec.label(), prio, now, max_queue, max_client, queued_bytes, result_ttl,
+                kGroup, job.tenant});
   const int64_t outcome = r.ok() ? as_int(element(r->get(), 0)) : 0;
   if (!r.ok() || outcome != 1) (void)blobs_->remove(key("upload:", id));
   if (!r.ok()) return r.status();
   const int64_t n = as_int(element(r->get(), 1));
   if (outcome == 0) return check_queue_length(options_.limits, size_t(n));
-  if (outcome == -1) return check_client_jobs(options_.limits, job.peer, size_t(n));
+  if (outcome == -1) return check_client_jobs(client_limit, job.client, size_t(n));
   if (outcome != 1) return internal_error("job id " + id + " collided with an existing job; submit again");
   spdlog::info("job {} queued in {}: label '{}', {} bytes, target {} vertices, priority {}, client {}", id,
                client_.endpoint().url(), job.spec.label(), job.mesh.size(), job.spec.target_vertices(), priority,
-               job.peer);
+               job.client);
   if (options_.on_state) options_.on_state(id, v1::JOB_STATE_QUEUED);
   return id;
 }
@@ -224,6 +225,14 @@ StatusOr<v1::JobStatus> RedisQueue::cancel(const std::string& job_id, const Stat
     spdlog::info("job {} cancel requested while running: {}", job_id, reason.message());
   }
   return status(job_id);
+}
+
+Status RedisQueue::check_owner(const std::string& job_id, const std::string& tenant) {
+  auto r = client_.command({"HMGET", key("job:", job_id), "state", "tenant"});
+  if (!r.ok()) return r.status();
+  // A job from before tenants were stored has none: it belongs to "".
+  if (is_nil(element(r->get(), 0)) || as_string(element(r->get(), 1)) != tenant) return not_found(job_id);
+  return Status::Ok();
 }
 
 StatusOr<v1::JobStatus> RedisQueue::status(const std::string& job_id) {

@@ -54,6 +54,7 @@ class RedisQueue final : public JobQueue {
   std::optional<Status> cancellation(const std::string& job_id) override;
   StatusOr<v1::JobStatus> cancel(const std::string& job_id, const Status& reason) override;
   StatusOr<v1::JobStatus> status(const std::string& job_id) override;
+  Status check_owner(const std::string& job_id, const std::string& tenant) override;
   StatusOr<EventBatch> events(const std::string& job_id, uint64_t from, size_t max_events) override;
   StatusOr<uint64_t> subscribe(const std::string& job_id, Listener listener) override;
   void unsubscribe(const std::string& job_id, uint64_t token) override;

@@ -6,7 +6,9 @@
 //   jobs:<priority>  stream per priority (-10..10), consumer group "workers";
 //                    one entry {job: ID} per waiting or running job; a
 //                    delivered entry stays pending until the job ends.
-//   job:<ID>         hash: spec, peer, label, prio, state (JobState number),
+//   job:<ID>         hash: spec, peer (the client --max-jobs-per-client counts:
+//                    a tenant, or an address without port), tenant (the
+//                    owner; "" without --auth-tokens), label, prio, state (JobState number),
 //                    worker, stage, submitted_ms, finished_ms, cancel (a
 //                    Failure), deliveries, token, stream, entry, ttl_ms,
 //                    nevents.
@@ -14,7 +16,8 @@
 //                    0-(N+1), so Watch from sequence N is one XRANGE.
 //   upload:<ID>      the Draco upload, with --upload-ttl (RedisBlobStore; the
 //                    scripts delete it when the job ends).
-//   clients          hash: peer -> unfinished jobs (--max-jobs-per-client).
+//   clients          hash: peer -> unfinished jobs (--max-jobs-per-client),
+//                    shared by every replica.
 //   finished         hash: state -> jobs ended so far (metrics).
 //   dead             the dead-letter stream: {job, reason, deliveries, worker}.
 //   doorbell         a short stream with an entry per submission: idle workers
@@ -67,7 +70,7 @@ end
 // KEYS: job, upload, events, clients, the job's stream, doorbell, then every
 //       job stream.
 // ARGV: id, spec, peer, label, priority, now_ms, max_queue,
-//       max_jobs_per_client, queued event, result_ttl_ms, group.
+//       the client's job limit, queued event, result_ttl_ms, group, tenant.
 // The upload is already in the BlobStore (server/blob_store.h).
 // Returns {1, waiting}, {0, waiting} (queue full), {-1, unfinished} (client
 // full) or {-2, 0} (id taken).
@@ -78,7 +81,7 @@ if w >= tonumber(ARGV[7]) then return {0, w} end
 local mine = tonumber(redis.call('HGET', KEYS[4], ARGV[3]) or '0')
 if mine >= tonumber(ARGV[8]) then return {-1, mine} end
 if redis.call('EXISTS', KEYS[1]) == 1 then return {-2, 0} end
-redis.call('HSET', KEYS[1], 'spec', ARGV[2], 'peer', ARGV[3], 'label', ARGV[4], 'prio', ARGV[5], 'state', 1,
+redis.call('HSET', KEYS[1], 'spec', ARGV[2], 'peer', ARGV[3], 'tenant', ARGV[12], 'label', ARGV[4], 'prio', ARGV[5], 'state', 1,
            'submitted_ms', ARGV[6], 'ttl_ms', ARGV[10], 'deliveries', 0, 'token', 0, 'nevents', 0, 'stream', KEYS[5])
 append(KEYS[1], KEYS[3], ARGV[9])
 redis.call('HSET', KEYS[1], 'entry', redis.call('XADD', KEYS[5], '*', 'job', ARGV[1]))

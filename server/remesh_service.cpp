@@ -18,7 +18,11 @@ using Finisher = std::function<void(const grpc::Status&)>;
 // Collects one upload: the spec first, then the Draco file in chunks.
 class Upload {
  public:
-  Upload(RemeshServiceImpl& service, std::string peer) : service_(service) { submission_.peer = std::move(peer); }
+  Upload(RemeshServiceImpl& service, const Caller& caller) : service_(service) {
+    submission_.tenant = caller.tenant;
+    submission_.client = caller.client;
+    submission_.max_jobs = caller.max_jobs;
+  }
 
   grpc::Status add(const v1::RemeshRequest& request) {
     const ServerLimits& limits = service_.config().limits;
@@ -55,6 +59,7 @@ class Upload {
   grpc::Status submit(std::string* job_id) {
     if (!have_spec_) return bad("the upload is empty: no spec arrived");
     const auto& mesh = submission_.mesh;
+    const std::string tenant = submission_.tenant;
     if (Status s = check_upload_complete(mesh.size(), submission_.spec.mesh_size_bytes(), mesh.data(), mesh.size());
         !s.ok())
       return to_grpc(s);
@@ -62,7 +67,10 @@ class Upload {
       if (Status s = service_.config().admission(); !s.ok()) return to_grpc(s);
     auto id = service_.queue().submit(std::move(submission_));
     if (!id.ok()) return to_grpc(id.status());
-    if (service_.metrics()) service_.metrics()->submitted.inc();
+    if (service_.metrics()) {
+      service_.metrics()->submitted.inc();
+      if (!tenant.empty()) service_.metrics()->tenant_submitted(tenant).inc();
+    }
     *job_id = *id;
     return grpc::Status::OK;
   }
@@ -188,8 +196,8 @@ Status cancel_reason(grpc::CallbackServerContext* context, const char* rpc) {
 
 class RemeshReactor final : public grpc::ServerBidiReactor<v1::RemeshRequest, v1::JobEvent> {
  public:
-  RemeshReactor(RemeshServiceImpl& service, grpc::CallbackServerContext* context)
-      : service_(service), context_(context), upload_(service, context->peer()) {
+  RemeshReactor(RemeshServiceImpl& service, grpc::CallbackServerContext* context, const Caller& caller)
+      : service_(service), context_(context), caller_(caller), upload_(service, caller) {
     // Headers first, before any of the upload is read: the client half-closes
     // only once they arrived, and gRPC stops retrying a call at its headers,
     // so an upload this server may accept (at the half-close) is never sent
@@ -262,12 +270,13 @@ class RemeshReactor final : public grpc::ServerBidiReactor<v1::RemeshRequest, v1
   }
 
   void finish_upload(const grpc::Status& s) {
-    if (!s.ok()) spdlog::info("Remesh from {} refused: {}", context_->peer(), s.error_message());
+    if (!s.ok()) spdlog::info("Remesh from {} refused: {}", caller_.client, s.error_message());
     Finish(s);
   }
 
   RemeshServiceImpl& service_;
   grpc::CallbackServerContext* context_;
+  const Caller caller_;
   Upload upload_;
   v1::RemeshRequest request_;
   std::mutex mu_;
@@ -279,8 +288,9 @@ class RemeshReactor final : public grpc::ServerBidiReactor<v1::RemeshRequest, v1
 
 class SubmitReactor final : public grpc::ServerReadReactor<v1::RemeshRequest> {
  public:
-  SubmitReactor(RemeshServiceImpl& service, grpc::CallbackServerContext* context, v1::JobRef* response)
-      : context_(context), upload_(service, context->peer()), response_(response) {
+  SubmitReactor(RemeshServiceImpl& service, grpc::CallbackServerContext* context, const Caller& caller,
+                v1::JobRef* response)
+      : context_(context), caller_(caller), upload_(service, caller), response_(response) {
     StartSendInitialMetadata();  // as Remesh: the client's retries end here
     StartRead(&request_);
   }
@@ -302,11 +312,12 @@ class SubmitReactor final : public grpc::ServerReadReactor<v1::RemeshRequest> {
 
  private:
   void finish(const grpc::Status& s) {
-    if (!s.ok()) spdlog::info("Submit from {} refused: {}", context_->peer(), s.error_message());
+    if (!s.ok()) spdlog::info("Submit from {} refused: {}", caller_.client, s.error_message());
     Finish(s);
   }
 
   grpc::CallbackServerContext* context_;
+  const Caller caller_;
   Upload upload_;
   v1::JobRef* response_;
   v1::RemeshRequest request_;
@@ -338,7 +349,29 @@ class WatchReactor final : public grpc::ServerWriteReactor<v1::JobEvent> {
   uint64_t stream_id_ = 0;
 };
 
+// A call refused before it started (no token, another tenant's job): ends
+// at once with `status`.
+template <class Reactor>
+class Refused final : public Reactor {
+ public:
+  explicit Refused(const grpc::Status& status) { this->Finish(status); }
+  void OnDone() override { delete this; }
+};
+
 }  // namespace
+
+grpc::Status RemeshServiceImpl::identify(const grpc::ServerContextBase& context, Caller* caller) const {
+  static const Authenticator kOpen;
+  const grpc::Status s = (config_.auth ? *config_.auth : kOpen).identify(context, caller);
+  if (!s.ok() && metrics_) metrics_->unauthenticated.inc();
+  return s;
+}
+
+grpc::Status RemeshServiceImpl::check_access(const Caller& caller, const std::string& job_id) {
+  // Without authentication every job is everyone's, as before tenants.
+  if (!config_.auth || !config_.auth->enabled()) return grpc::Status::OK;
+  return to_grpc(queue_.check_owner(job_id, caller.tenant));
+}
 
 uint64_t RemeshServiceImpl::add_stream(StreamStopper stop) {
   std::lock_guard<std::mutex> lock(streams_mu_);
@@ -365,22 +398,39 @@ void RemeshServiceImpl::end_streams(const Status& why) {
 
 grpc::ServerBidiReactor<v1::RemeshRequest, v1::JobEvent>* RemeshServiceImpl::Remesh(
     grpc::CallbackServerContext* context) {
-  return new RemeshReactor(*this, context);
+  Caller caller;
+  if (grpc::Status s = identify(*context, &caller); !s.ok())
+    return new Refused<grpc::ServerBidiReactor<v1::RemeshRequest, v1::JobEvent>>(s);
+  return new RemeshReactor(*this, context, caller);
 }
 
 grpc::ServerReadReactor<v1::RemeshRequest>* RemeshServiceImpl::Submit(grpc::CallbackServerContext* context,
                                                                       v1::JobRef* response) {
-  return new SubmitReactor(*this, context, response);
+  Caller caller;
+  if (grpc::Status s = identify(*context, &caller); !s.ok())
+    return new Refused<grpc::ServerReadReactor<v1::RemeshRequest>>(s);
+  return new SubmitReactor(*this, context, caller, response);
 }
 
-grpc::ServerWriteReactor<v1::JobEvent>* RemeshServiceImpl::Watch(grpc::CallbackServerContext*,
+grpc::ServerWriteReactor<v1::JobEvent>* RemeshServiceImpl::Watch(grpc::CallbackServerContext* context,
                                                                  const v1::JobRef* request) {
+  Caller caller;
+  grpc::Status s = identify(*context, &caller);
+  if (s.ok()) s = check_access(caller, request->job_id());
+  if (!s.ok()) return new Refused<grpc::ServerWriteReactor<v1::JobEvent>>(s);
   return new WatchReactor(*this, *request);
 }
 
 grpc::ServerUnaryReactor* RemeshServiceImpl::GetJob(grpc::CallbackServerContext* context, const v1::JobRef* request,
                                                     v1::JobStatus* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  Caller caller;
+  grpc::Status allowed = identify(*context, &caller);
+  if (allowed.ok()) allowed = check_access(caller, request->job_id());
+  if (!allowed.ok()) {
+    reactor->Finish(allowed);
+    return reactor;
+  }
   auto status = queue_.status(request->job_id());
   if (status.ok()) *response = *status;
   reactor->Finish(to_grpc(status.status()));
@@ -390,8 +440,15 @@ grpc::ServerUnaryReactor* RemeshServiceImpl::GetJob(grpc::CallbackServerContext*
 grpc::ServerUnaryReactor* RemeshServiceImpl::CancelJob(grpc::CallbackServerContext* context, const v1::JobRef* request,
                                                        v1::JobStatus* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  auto status = queue_.cancel(request->job_id(),
-                              Status(StatusCode::kCancelled, "cancelled by CancelJob from " + context->peer()));
+  Caller caller;
+  grpc::Status allowed = identify(*context, &caller);
+  if (allowed.ok()) allowed = check_access(caller, request->job_id());
+  if (!allowed.ok()) {
+    reactor->Finish(allowed);
+    return reactor;
+  }
+  const std::string who = caller.tenant.empty() ? context->peer() : "tenant " + caller.tenant;
+  auto status = queue_.cancel(request->job_id(), Status(StatusCode::kCancelled, "cancelled by CancelJob from " + who));
   if (status.ok()) *response = *status;
   reactor->Finish(to_grpc(status.status()));
   return reactor;

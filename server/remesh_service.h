@@ -8,6 +8,7 @@
 #include <map>
 #include <mutex>
 
+#include "server/authenticator.h"
 #include "server/job_queue.h"
 #include "server/limits.h"
 #include "server/service_metrics.h"
@@ -21,6 +22,8 @@ struct ServiceConfig {
   // OK while jobs can be accepted; UNAVAILABLE (with the reason) when no
   // worker is live. Null: always OK.
   std::function<Status()> admission;
+  // Who may call, and as which tenant; null: everyone, as nobody in particular.
+  const Authenticator* auth = nullptr;
 };
 
 class RemeshServiceImpl final : public v1::RemeshService::CallbackService {
@@ -41,6 +44,12 @@ class RemeshServiceImpl final : public v1::RemeshService::CallbackService {
   JobQueue& queue() { return queue_; }
   const ServiceConfig& config() const { return config_; }
   ServiceMetrics* metrics() { return metrics_; }
+
+  // The caller of an RPC, or UNAUTHENTICATED.
+  grpc::Status identify(const grpc::ServerContextBase& context, Caller* caller) const;
+  // OK when the caller may see the job: it exists and, with authentication,
+  // is the caller's own; else the queue's NOT_FOUND.
+  grpc::Status check_access(const Caller& caller, const std::string& job_id);
 
   // A replica leaving a shared (Redis) queue: ends every Remesh and Watch
   // stream now with `why` (UNAVAILABLE, so clients re-attach elsewhere) and

@@ -1,5 +1,6 @@
 #include "server/server_options.h"
 
+#include "server/process_main.h"
 #include "server/redis_client.h"
 
 #include <unistd.h>
@@ -109,10 +110,29 @@ void add_server_options(CLI::App& app, ServerOptions* o) {
   app.add_option("--max-queue", o->limits.max_queue, "Most jobs waiting; more are RESOURCE_EXHAUSTED")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  app.add_option("--max-jobs-per-client", o->limits.max_jobs_per_client, "Most unfinished jobs per client connection")
+  app.add_option("--max-jobs-per-client", o->limits.max_jobs_per_client,
+                 "Most unfinished jobs per tenant (with --auth-tokens; a tenant's max_jobs= overrides it) or per "
+                 "source address, counted across connections and replicas")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   add_isolation_options(app, &o->isolation);
+
+  app.add_option("--auth-tokens", o->auth_tokens,
+                 "Tenants and their tokens: lines 'TENANT SHA256_HEX_OF_TOKEN [max_jobs=N]'; RemeshService calls "
+                 "then need 'authorization: Bearer TOKEN'. Re-read on SIGHUP")
+      ->check(CLI::ExistingFile);
+  app.add_flag("--insecure", o->insecure,
+               "Listen on a non-loopback address without --auth-tokens: anyone who reaches the port may run jobs "
+               "and read any result");
+  app.add_option("--tls-cert", o->tls_cert, "PEM certificate chain: serve gRPC over TLS (with --tls-key)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--tls-key", o->tls_key, "PEM private key of --tls-cert")->check(CLI::ExistingFile);
+  app.add_option("--health-listen", o->health_listen,
+                 "Also serve grpc.health.v1 alone, in plaintext and without tokens, at HOST:PORT (for probes that "
+                 "cannot speak TLS, such as Kubernetes' gRPC probes)");
+  app.add_option("--tls-client-ca", o->tls_client_ca,
+                 "PEM CA certificates: require a client certificate signed by one of them (mutual TLS)")
+      ->check(CLI::ExistingFile);
 }
 
 namespace {
@@ -133,13 +153,25 @@ bool uses_redis(const ServerOptions& o) {
   return o.queue != "embedded";
 }
 
+bool is_loopback_host(const std::string& host) {
+  return host == "localhost" || host == "[::1]" || host == "::1" || host.rfind("127.", 0) == 0;
+}
+
 Status check_server_options(const ServerOptions& o) {
   VPR_RETURN_IF_ERROR(check_address("--listen", o.listen));
+  if (o.auth_tokens.empty() && !o.insecure && !is_loopback_host(host_of(o.listen)))
+    return invalid_argument("refusing to listen on " + o.listen +
+                            " without --auth-tokens: anyone who reaches it could run jobs and read every result; "
+                            "give --auth-tokens FILE (docs/security.md), listen on 127.0.0.1, or pass --insecure");
+  if (o.tls_cert.empty() != o.tls_key.empty()) return invalid_argument("--tls-cert and --tls-key go together");
+  if (!o.tls_client_ca.empty() && o.tls_cert.empty())
+    return invalid_argument("--tls-client-ca needs --tls-cert and --tls-key (mutual TLS is TLS first)");
   if (uses_redis(o)) {
     auto endpoint = parse_redis_url(o.queue);
     if (!endpoint.ok()) return invalid_argument("--queue: " + endpoint.status().message());
   }
   if (!o.metrics_listen.empty()) VPR_RETURN_IF_ERROR(check_address("--metrics-listen", o.metrics_listen));
+  if (!o.health_listen.empty()) VPR_RETURN_IF_ERROR(check_address("--health-listen", o.health_listen));
   if (o.limits.max_target_vertices < kMinTargetVertices || o.limits.max_target_vertices > kMaxTargetVertices)
     return invalid_argument("--max-target-vertices must be in [" + std::to_string(kMinTargetVertices) + ", " +
                             std::to_string(kMaxTargetVertices) + "]");

@@ -36,6 +36,13 @@ struct ServerOptions {
   double drain_grace_s = 30;             // --drain-grace: SIGTERM waits this long for running jobs
   size_t gpu_job_mib = 0;                // --gpu-memory-per-job: device memory budget of one job (0: GPU / workers on it)
   std::string log_level = "info";        // --log-level
+  // Who may connect (docs/security.md).
+  std::string auth_tokens;    // --auth-tokens FILE: tenants and their token hashes; empty: no authentication
+  bool insecure = false;      // --insecure: allow a non-loopback --listen without --auth-tokens
+  std::string tls_cert;       // --tls-cert FILE (PEM): TLS on the gRPC port, with --tls-key
+  std::string tls_key;        // --tls-key FILE (PEM)
+  std::string tls_client_ca;  // --tls-client-ca FILE (PEM): also require client certificates signed by it
+  std::string health_listen;  // --health-listen HOST:PORT: grpc.health.v1 alone, plaintext (probes); empty: none
   ServerLimits limits;
   JobIsolationOptions isolation;  // --isolation, --job-memory-mib, --job-cpu-seconds
 };
@@ -45,6 +52,9 @@ struct ServerOptions {
 void add_server_options(CLI::App& app, ServerOptions* options);
 
 bool uses_redis(const ServerOptions& options);
+
+// 127.0.0.0/8, ::1 or localhost: only this machine can connect.
+bool is_loopback_host(const std::string& host);
 
 // Cross-field checks after parsing (e.g. --max-target-vertices within the
 // pipeline's range); INVALID_ARGUMENT names the flag.

@@ -16,10 +16,17 @@ struct ServiceMetrics {
   Gauge& busy_workers = registry.gauge("vpremesh_busy_workers", "Workers running a job");
   Gauge& live_workers = registry.gauge("vpremesh_workers", "Workers able to run jobs (renderer created)");
   Counter& submitted = registry.counter("vpremesh_jobs_submitted_total", "Jobs accepted into the queue");
+  Counter& unauthenticated =
+      registry.counter("vpremesh_unauthenticated_calls_total", "RemeshService calls refused for a missing or unknown token");
   Counter& bytes_in = registry.counter("vpremesh_received_bytes_total", "Mesh bytes uploaded by clients");
   Counter& bytes_out =
       registry.counter("vpremesh_sent_bytes_total", "Result bytes produced for clients (mesh and float arrays)");
 
+  // Named by the tenant, never by its token.
+  Counter& tenant_submitted(const std::string& tenant) {
+    return registry.counter("vpremesh_tenant_jobs_submitted_total", "Jobs accepted into the queue, by tenant",
+                            {{"tenant", tenant}});
+  }
   // Jobs held now (queued, running, and finished ones kept for --result-ttl).
   Gauge& jobs(v1::JobState s) {
     return registry.gauge("vpremesh_jobs", "Jobs held by the server, by state", {{"state", state_name(s)}});

@@ -33,7 +33,7 @@ LABEL org.opencontainers.image.ref.name="ghcr.io/vpremesh/vpremesh-server:0.1.0"
       org.opencontainers.image.title="vpremesh-server"
 USER 10001
 # gRPC (--listen's default) and the conventional --metrics-listen port.
-EXPOSE 50051 9090
+EXPOSE 50051 50052 9090
 # A TCP connect with bash alone: the image has no gRPC health client
 # (grpc_health_probe is not in Debian). Kubernetes ignores this and uses its
 # native `grpc:` probes against grpc.health.v1 (deploy/k8s/server.yaml).

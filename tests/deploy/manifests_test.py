@@ -200,9 +200,9 @@ def check_flags(binary, tokens):
 
 
 def listened_ports(binary, tokens):
-    """Ports the process binds: --listen (or its default) and --metrics-listen."""
+    """Ports the process binds: --listen (or its default), --metrics-listen and --health-listen."""
     help_flags, ports = binary_help(binary), set()
-    for flag in ("--listen", "--metrics-listen"):
+    for flag in ("--listen", "--metrics-listen", "--health-listen"):
         value = flag_value(tokens, flag, help_flags) if flag in help_flags else None
         if value:
             ports.add(port_of(value))
@@ -303,15 +303,41 @@ def check_redis_memory(container):
 
 
 def check_queue_url(url, services):
-    """redis://[:PASSWORD@]HOST:PORT[/DB] naming a Service (k8s) or service (compose) and its port."""
-    m = re.fullmatch(r"redis://(?::[^@]+@)?([\w.\-]+):(\d+)(?:/\d+)?", url or "")
+    """redis://[USER]:PASSWORD@HOST:PORT[/DB] naming a Service (k8s) or service (compose) and its port.
+    The password is required: Redis holds every tenant's uploads and results."""
+    m = re.fullmatch(r"redis://(?:([\w.\-]*):([^@]+)@)?([\w.\-]+):(\d+)(?:/\d+)?", url or "")
     if not m:
-        return [f"--queue {url!r} is not redis://HOST:PORT[/DB]"]
-    host, port = m.group(1), int(m.group(2))
+        return [f"--queue {url!r} is not redis://[USER]:PASSWORD@HOST:PORT[/DB]"]
+    if not m.group(2):
+        return [f"--queue {url!r} has no password: Redis must not be open to anyone on the network"]
+    host, port = m.group(3), int(m.group(4))
     if host not in services:
         return [f"--queue host {host} is not a service here ({sorted(services)})"]
     if port not in services[host]:
         return [f"--queue port {port} is not a port of {host} ({sorted(services[host])})"]
+    return []
+
+
+def check_server_security(tokens, mounted_dirs):
+    """A server listening beyond loopback has tenants' tokens and TLS, from files that are mounted."""
+    opts = dict(parse_flags(tokens))
+    problems = []
+    if "--insecure" in opts:
+        problems.append("vpremesh-server runs with --insecure: anyone who reaches it may run jobs")
+    for flag in ("--auth-tokens", "--tls-cert", "--tls-key"):
+        path = opts.get(flag)
+        if not path:
+            problems.append(f"vpremesh-server has no {flag}")
+        elif not any(path.startswith(d.rstrip("/") + "/") for d in mounted_dirs):
+            problems.append(f"vpremesh-server {flag} {path} is in no mounted volume ({sorted(mounted_dirs)})")
+    return problems
+
+
+def check_redis_password(tokens):
+    """Redis asks for a password (--requirepass, or ACL users from --aclfile)."""
+    opts = dict(parse_flags(tokens))
+    if not opts.get("--requirepass") and not opts.get("--aclfile"):
+        return ["redis runs without --requirepass or --aclfile: anyone on the network reads every job"]
     return []
 
 
@@ -404,7 +430,12 @@ class K8sTest(unittest.TestCase):
         self.assertEqual(check_flags("vpremesh-server", args), [])
         self.assertEqual(check_container_ports(c, "vpremesh-server"), [])
         grpc_ports = {c[p]["grpc"]["port"] for p in ("livenessProbe", "readinessProbe") if "grpc" in c.get(p, {})}
-        self.assertEqual(grpc_ports, {port_of(flag_value(args, "--listen", binary_help("vpremesh-server")))})
+        # Probes speak no TLS: with --tls-cert they ask the plaintext --health-listen port.
+        probed = "--health-listen" if flag_value(args, "--tls-cert") else "--listen"
+        self.assertEqual(grpc_ports, {port_of(flag_value(args, probed, binary_help("vpremesh-server")))})
+        secret_volumes = {v["name"] for v in spec.get("volumes", []) if "secret" in v}
+        mounted = {m["mountPath"] for m in c.get("volumeMounts", []) if m["name"] in secret_volumes}
+        self.assertEqual(check_server_security(args, mounted), [])
         self.assertEqual(check_grace(spec["terminationGracePeriodSeconds"], "vpremesh-server", args,
                                      prestop_sleep(c) + SERVER_SHUTDOWN_AFTER_GRACE_S), [])
         self.assertEqual(check_queue_url(flag_value(args, "--queue"), k8s_services(self.objects)), [])
@@ -447,6 +478,7 @@ class K8sTest(unittest.TestCase):
         (sts,) = [o for _, o in self.objects if o["kind"] == "StatefulSet"]
         (c,) = sts["spec"]["template"]["spec"]["containers"]
         self.assertEqual(check_redis_args(c["args"]), [])
+        self.assertEqual(check_redis_password(c["args"]), [])
         self.assertEqual(check_container_ports(c, None), [])
         self.assertEqual(check_redis_memory(c), [])
         data_dir = flag_value(c["args"], "--dir") or "/data"
@@ -492,6 +524,8 @@ class ComposeTest(unittest.TestCase):
                                      "vpremesh-server", args, SERVER_SHUTDOWN_AFTER_GRACE_S), [])
         self.assertEqual(check_queue_url(flag_value(args, "--queue"), self.reachable), [])
         self.assertEqual(s["depends_on"]["redis"]["condition"], "service_healthy")
+        mounted = {v.split(":")[1] for v in s.get("volumes", [])}
+        self.assertEqual(check_server_security(args, mounted), [])
 
     def test_worker(self):
         s = self._service("vpremesh-worker")
@@ -510,6 +544,7 @@ class ComposeTest(unittest.TestCase):
         (redis,) = [s for s in self.services.values() if s["image"].startswith("redis:")]
         self.assertEqual(redis["command"][0], "redis-server")
         self.assertEqual(check_redis_args(redis["command"][1:]), [])
+        self.assertEqual(check_redis_password(redis["command"][1:]), [])
         volume = next(v.split(":")[0] for v in redis["volumes"] if v.endswith(":/data"))
         self.assertIn(volume, compose_file()["volumes"], "/data must be a named volume")
         self.assertIn("redis-cli ping", " ".join(redis["healthcheck"]["test"]))
@@ -531,11 +566,11 @@ class CheckerSelfTest(unittest.TestCase):
         self.assertEqual(check_flags("vpremesh-server", ["--device=cpu", "--listen", "0.0.0.0:1"]), [])
 
     def test_probe_and_listen_mismatch(self):
-        self.server["readinessProbe"]["grpc"]["port"] = 50052
-        self.assertTrue(any("50052" in p for p in check_container_ports(self.server, "vpremesh-server")))
+        self.server["readinessProbe"]["grpc"]["port"] = 50053
+        self.assertTrue(any("50053" in p for p in check_container_ports(self.server, "vpremesh-server")))
         self.server["readinessProbe"]["grpc"]["port"] = "grpc"
         self.assertTrue(check_container_ports(self.server, "vpremesh-server"))
-        self.server["readinessProbe"]["grpc"]["port"] = 50051
+        self.server["readinessProbe"]["grpc"]["port"] = 50052
         self.server["args"] = [a.replace("0.0.0.0:9090", "0.0.0.0:9191") for a in self.server["args"]]
         self.assertTrue(check_container_ports(self.server, "vpremesh-server"))
 
@@ -563,8 +598,20 @@ class CheckerSelfTest(unittest.TestCase):
         self.assertTrue(check_redis_args(["--appendonly", "yes", "--maxmemory-policy", "allkeys-lru"]))
         services = k8s_services(self.objects)
         self.assertTrue(check_queue_url("redis://redis:6379", services))
-        self.assertTrue(check_queue_url("redis://vpremesh-redis:6380", services))
+        self.assertTrue(check_queue_url("redis://:pw@vpremesh-redis:6380", services))
+        self.assertTrue(check_queue_url("redis://vpremesh-redis:6379", services))  # no password
         self.assertEqual(check_queue_url("redis://:secret@vpremesh-redis:6379/2", services), [])
+        self.assertEqual(check_queue_url("redis://vpremesh:secret@vpremesh-redis:6379", services), [])
+        self.assertTrue(check_redis_password(["--appendonly", "yes"]))
+        self.assertEqual(check_redis_password(["--requirepass", "$(REDIS_PASSWORD)"]), [])
+
+    def test_server_security(self):
+        args = self.server["args"]
+        self.assertEqual(check_server_security(args, {"/etc/vpremesh/tokens", "/etc/vpremesh/tls"}), [])
+        self.assertTrue(check_server_security(args, {"/etc/vpremesh/tokens"}))  # TLS files not mounted
+        self.assertTrue(check_server_security(args + ["--insecure"], {"/etc/vpremesh/tokens", "/etc/vpremesh/tls"}))
+        without_tokens = [a for a in args if a not in ("--auth-tokens", "/etc/vpremesh/tokens/tokens")]
+        self.assertTrue(any("--auth-tokens" in p for p in check_server_security(without_tokens, {"/etc/vpremesh"})))
 
     def test_parsers(self):
         self.assertEqual(parse_flags(["--a=1", "--b", "2", "--c", "--d", "x"]),

@@ -13,6 +13,7 @@
 
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "http_get.h"
+#include "auth_harness.h"
 #include "redis_harness.h"
 #include "test_meshes.h"
 
@@ -885,6 +886,48 @@ TEST_F(RedisEndToEndTest, CancelThroughAnotherReplicaStopsTheRunningJob) {
   const History next = remesh_job(*stub_b, inputs[0]);
   ASSERT_TRUE(next.status.ok()) << next.describe() << "\n" << all_logs();
   EXPECT_TRUE(next.result == inputs[0].expected);
+}
+
+// Tenants across replicas: the owner is stored with the job in Redis, so
+// tenant beta cannot get, watch or cancel alpha's job through the other
+// replica either (NOT_FOUND), while alpha follows it there to its result;
+// and alpha's quota (max_jobs=1) counts its jobs on every replica.
+TEST_F(RedisEndToEndTest, TenantsSeeOnlyTheirOwnJobsOnEveryReplica) {
+  const Input long_job = long_input();
+  ASSERT_FALSE(HasFatalFailure());
+  const std::string a_token = "alpha-token-9c2e", b_token = "beta-token-5d1f";
+  write_tokens(path("tokens"), {{"alpha", a_token + " max_jobs=1"}, {"beta", b_token}});
+  ServerProcess *a = nullptr, *b = nullptr;
+  ASSERT_NO_FATAL_FAILURE(start_replicas(&a, &b, {"--auth-tokens", path("tokens")}));
+  ServerProcess* c = start_server({"--auth-tokens", path("tokens")});
+  ASSERT_STARTED(c, "server C");
+  auto stub_a = make_stub(a->address());
+  auto stub_c = make_stub(c->address());
+
+  std::string id;
+  ASSERT_TRUE(submit_as(*stub_a, a_token, long_job.spec(), long_job.draco, &id).ok()) << all_logs();
+  EXPECT_EQ(get_job_as(*stub_c, b_token, id).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(watch_as(*stub_c, b_token, id).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(cancel_as(*stub_c, b_token, id).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(get_job_as(*stub_c, "", id).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  v1::JobStatus status;
+  ASSERT_TRUE(get_job_as(*stub_c, a_token, id, &status).ok());
+  EXPECT_EQ(status.state(), v1::JOB_STATE_QUEUED);  // no worker yet
+
+  // The quota is the tenant's on every replica.
+  std::string refused;
+  const grpc::Status again = submit_as(*stub_c, a_token, long_job.spec(), long_job.draco, &refused);
+  EXPECT_EQ(again.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << again.error_message();
+  EXPECT_NE(again.error_message().find("client alpha"), std::string::npos) << again.error_message();
+
+  ASSERT_READY(start_worker());
+  std::string result;
+  EXPECT_TRUE(watch_as(*stub_c, a_token, id, &result).ok()) << all_logs();
+  EXPECT_TRUE(result == long_job.expected);
+  for (const auto& server : servers_) {
+    EXPECT_EQ(server->log().find(a_token), std::string::npos);
+    EXPECT_EQ(server->log().find(b_token), std::string::npos);
+  }
 }
 
 }  // namespace

@@ -195,7 +195,7 @@ TEST(EmbeddedQueue, FullQueueIsResourceExhaustedNamingTheLimit) {
   f.submit(0);
   f.submit(0);
   JobSubmission s;
-  s.peer = "client-a";
+  s.client = "client-a";
   auto third = f.queue.submit(std::move(s));
   ASSERT_FALSE(third.ok());
   EXPECT_EQ(third.status().code(), StatusCode::kResourceExhausted);
@@ -211,7 +211,7 @@ TEST(EmbeddedQueue, PerClientLimitCountsUnfinishedJobsOfThatClient) {
   const std::string a = f.submit(0, "peer-1");
   f.submit(0, "peer-1");
   JobSubmission s;
-  s.peer = "peer-1";
+  s.client = "peer-1";
   auto refused = f.queue.submit(s);
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.status().code(), StatusCode::kResourceExhausted);

@@ -44,10 +44,10 @@ TEST(Limits, QueueLength) {
 TEST(Limits, JobsPerClient) {
   ServerLimits l;
   l.max_jobs_per_client = 2;
-  EXPECT_TRUE(check_client_jobs(l, "ipv4:1.2.3.4:5", 1).ok());
-  const Status s = check_client_jobs(l, "ipv4:1.2.3.4:5", 2);
+  EXPECT_TRUE(check_client_jobs(l.max_jobs_per_client, "ipv4:1.2.3.4", 1).ok());
+  const Status s = check_client_jobs(l.max_jobs_per_client, "ipv4:1.2.3.4", 2);
   expect_names(s, StatusCode::kResourceExhausted, "--max-jobs-per-client");
-  expect_names(s, StatusCode::kResourceExhausted, "ipv4:1.2.3.4:5");
+  expect_names(s, StatusCode::kResourceExhausted, "ipv4:1.2.3.4");
 }
 
 TEST(Limits, VertexAndFaceCountsNameTheirFlags) {

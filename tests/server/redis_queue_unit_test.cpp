@@ -88,6 +88,11 @@ TEST(RedisUrl, ParsesHostPortDatabaseAndPassword) {
   auto plain = parse_redis_url("redis://10.0.0.5");
   ASSERT_TRUE(plain.ok());
   EXPECT_EQ(plain->port, 6379);
+  auto acl = parse_redis_url("redis://vpremesh:pa:ss@cache:6380");  // a Redis 6 ACL user
+  ASSERT_TRUE(acl.ok()) << acl.status().to_string();
+  EXPECT_EQ(acl->user, "vpremesh");
+  EXPECT_EQ(acl->password, "pa:ss");
+  EXPECT_EQ(acl->url(), "redis://vpremesh@cache:6380");
   auto v6 = parse_redis_url("redis://[::1]:7000");
   ASSERT_TRUE(v6.ok());
   EXPECT_EQ(v6->host, "::1");
@@ -96,11 +101,29 @@ TEST(RedisUrl, ParsesHostPortDatabaseAndPassword) {
 
 TEST(RedisUrl, RefusesWhatItCannotUse) {
   for (const char* bad : {"http://h:1", "redis://", "redis://h:0", "redis://h:70000", "redis://h:x",
-                          "redis://h:1/db", "redis://user:pw@h:1"}) {
+                          "redis://h:1/db", "redis://user@h:1", "rediss://h:1"}) {
     auto e = parse_redis_url(bad);
     ASSERT_FALSE(e.ok()) << bad;
     EXPECT_NE(e.status().message().find(bad), std::string::npos) << e.status().message();
   }
+  auto hidden = parse_redis_url("redis://u:s3cret@h:x");
+  ASSERT_FALSE(hidden.ok());
+  EXPECT_EQ(hidden.status().message().find("s3cret"), std::string::npos) << hidden.status().message();
+}
+
+// An ACL user with a password, as deploy/ runs Redis: AUTH USER PASSWORD.
+TEST_F(RedisQueueTest, ConnectsAsARedis6AclUser) {
+  RedisClient admin(parse_redis_url(redis_->url()).value());
+  ASSERT_TRUE(admin.command({"ACL", "SETUSER", "vpremesh", "on", ">pw-42", "~*", "&*", "+@all"}).ok());
+  RedisQueueOptions o = options();
+  o.endpoint = parse_redis_url("redis://vpremesh:pw-42@127.0.0.1:" + std::to_string(redis_->port())).value();
+  RedisQueue q(o);
+  EXPECT_TRUE(q.health().ok()) << q.health().message();
+  auto id = q.submit(job());
+  EXPECT_TRUE(id.ok()) << id.status().to_string();
+  o.endpoint.password = "wrong";
+  RedisQueue refused(o);
+  EXPECT_FALSE(refused.health().ok());
 }
 
 TEST_F(RedisQueueTest, AJobRunsToItsEndWithOrderedEventsAndExpiringKeys) {

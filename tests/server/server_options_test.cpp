@@ -63,7 +63,7 @@ TEST(ServerOptions, DefaultsKeepTheLibraryLimits) {
 }
 
 TEST(ServerOptions, QueueIsEmbeddedOrARedisUrl) {
-  ServerOptions o = parse({"--queue", "redis://cache:6380/1", "--upload-ttl", "60"});
+  ServerOptions o = parse({"--listen", "127.0.0.1:0", "--queue", "redis://cache:6380/1", "--upload-ttl", "60"});
   EXPECT_TRUE(uses_redis(o));
   EXPECT_TRUE(check_server_options(o).ok());
   EXPECT_DOUBLE_EQ(o.upload_ttl_s, 60);
@@ -84,9 +84,44 @@ TEST(ServerOptions, AddressesNeedAPortInRange) {
   }
   ServerOptions o;
   o.listen = "[::]:0";
+  o.insecure = true;
   EXPECT_TRUE(check_server_options(o).ok());
   o.metrics_listen = "9464";
   EXPECT_NE(check_server_options(o).message().find("--metrics-listen"), std::string::npos);
+}
+
+// No tokens: only this machine may connect, unless --insecure says otherwise.
+TEST(ServerOptions, AnOpenAddressNeedsTokensOrInsecure) {
+  for (const char* open : {"0.0.0.0:50051", "[::]:0", "10.0.0.5:1", "myhost:80"}) {
+    ServerOptions o;
+    o.listen = open;
+    const Status s = check_server_options(o);
+    EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << open;
+    EXPECT_NE(s.message().find("--auth-tokens"), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find("--insecure"), std::string::npos) << s.message();
+    o.insecure = true;
+    EXPECT_TRUE(check_server_options(o).ok()) << open;
+    o.insecure = false;
+    o.auth_tokens = "tokens.txt";
+    EXPECT_TRUE(check_server_options(o).ok()) << open;
+  }
+  for (const char* loopback : {"127.0.0.1:0", "localhost:50051", "[::1]:0", "127.0.0.2:1"}) {
+    ServerOptions o;
+    o.listen = loopback;
+    EXPECT_TRUE(check_server_options(o).ok()) << loopback;
+  }
+}
+
+TEST(ServerOptions, TlsFilesGoTogether) {
+  ServerOptions o;
+  o.listen = "127.0.0.1:0";
+  o.tls_cert = "cert.pem";
+  EXPECT_NE(check_server_options(o).message().find("--tls-key"), std::string::npos);
+  o.tls_key = "key.pem";
+  EXPECT_TRUE(check_server_options(o).ok());
+  o.tls_cert = o.tls_key = "";
+  o.tls_client_ca = "ca.pem";
+  EXPECT_NE(check_server_options(o).message().find("--tls-cert"), std::string::npos);
 }
 
 TEST(ServerOptions, UnknownDeviceIsAParseError) {

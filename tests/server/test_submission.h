@@ -15,7 +15,7 @@ inline JobSubmission test_submission(int priority = 0, const std::string& peer =
   s.spec.set_priority(priority);
   s.spec.set_label(label);
   s.mesh = {'D', 'R', 'A', 'C', 'O', 1, 2, 3};
-  s.peer = peer;
+  s.client = peer;
   return s;
 }
 
