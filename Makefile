@@ -6,7 +6,7 @@ MODEL ?= ../shared/models/horse.ply
 TARGET ?= 5000
 DEMO_OUT ?= out/demo
 
-.PHONY: all deps configure build test demo clean format
+.PHONY: all deps configure build test demo sanitize clean format
 
 all: build
 
@@ -21,6 +21,11 @@ build: configure
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS) --timeout 900
+
+# AddressSanitizer + UBSan build of the pipeline's tests in build/sanitize
+# (scripts/sanitize.sh); any report fails it.
+sanitize:
+	@bash scripts/sanitize.sh
 
 demo: build
 	@bash scripts/demo.sh $(BUILD) $(MODEL) $(TARGET) $(DEMO_OUT)
