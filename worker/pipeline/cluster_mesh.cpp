@@ -61,7 +61,9 @@ uint64_t key2(uint32_t a, uint32_t b) {
 // whose vertices all lie on the input's boundary is the input's boundary:
 // kept (counted in *kept). Other simple loops (each vertex with one outgoing
 // boundary edge) are closed by a fan, in the orientation that continues the
-// surface. Returns how many were closed.
+// surface, from a corner none of whose diagonals is an edge already (one that
+// is would get a third face); a loop with no such corner stays open. Returns
+// how many were closed.
 template <class OnBoundary>
 size_t close_dual_holes(std::vector<std::array<uint32_t, 3>>* tris, OnBoundary on_boundary, size_t* kept) {
   std::set<std::pair<uint32_t, uint32_t>> directed;
@@ -95,8 +97,23 @@ size_t close_dual_holes(std::vector<std::array<uint32_t, 3>>* tris, OnBoundary o
       ++*kept;
       continue;
     }
+    const size_t n = loop.size();
+    auto is_edge = [&](uint32_t a, uint32_t b) { return directed.count({a, b}) || directed.count({b, a}); };
+    size_t apex = 0;
+    for (; apex < n; ++apex) {
+      bool clear = true;
+      for (size_t j = 2; j + 1 < n && clear; ++j) clear = !is_edge(loop[apex], loop[(apex + j) % n]);
+      if (clear) break;
+    }
+    if (apex == n) continue;
+    std::rotate(loop.begin(), loop.begin() + apex, loop.end());
     // The loop runs along the triangles' edges; the patch runs against it.
-    for (size_t i = 1; i + 1 < loop.size(); ++i) tris->push_back({loop[0], loop[i + 1], loop[i]});
+    for (size_t i = 1; i + 1 < n; ++i) {
+      tris->push_back({loop[0], loop[i + 1], loop[i]});
+      directed.insert({loop[0], loop[i + 1]});
+      directed.insert({loop[i + 1], loop[i]});
+      directed.insert({loop[i], loop[0]});
+    }
     ++closed;
   }
   return closed;
