@@ -40,9 +40,11 @@ function(vpr_test name)
     message(STATUS "vpremesh: skipping ${name} (sources missing)")
     return()
   endif()
-  # `make sanitize` runs the tests named in VPR_SANITIZE_TESTS (tests/CMakeLists.txt).
-  if(VPR_SANITIZE AND name IN_LIST VPR_SANITIZE_TESTS)
+  # `make sanitize` builds and runs the tests defined while VPR_SANITIZE_THESE
+  # is on (tests/CMakeLists.txt).
+  if(VPR_SANITIZE AND VPR_SANITIZE_THESE)
     list(APPEND ARG_LABELS sanitize)
+    set_property(GLOBAL APPEND PROPERTY VPR_SANITIZE_TARGETS ${name})
   endif()
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main)
