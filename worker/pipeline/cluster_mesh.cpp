@@ -158,8 +158,9 @@ void drop_slivers(Mesh* mesh, std::vector<uint32_t>* source) {
 // Edge flips towards the Delaunay triangulation of the vertices on the
 // surface: an interior edge whose two opposite angles sum to more than pi is
 // flipped, unless the flip would fold the surface, cross a crease (faces
-// more than 30 degrees apart), or make an edge that exists already. The
-// vertices stay where the CVT put them; only the connectivity improves.
+// more than 30 degrees apart), or make an edge that exists already (or that
+// an earlier flip of the same pass made). The vertices stay where the CVT
+// put them; only the connectivity improves.
 void delaunay_flips(Mesh* mesh) {
   auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
   auto angle_at = [&](uint32_t o, uint32_t a, uint32_t b) {
@@ -206,6 +207,7 @@ void delaunay_flips(Mesh* mesh) {
       if (m0.dot(n0 + n1) <= 0 || m1.dot(n0 + n1) <= 0 || m0.dot(m1) < crease) continue;
       t0[0] = c, t0[1] = x, t0[2] = d;
       t1[0] = d, t1[1] = y, t1[2] = c;
+      faces_of.emplace(key2(c, d), std::array<int64_t, 2>{int64_t(f0), int64_t(f1)});  // no second c-d this pass
       touched[f0] = touched[f1] = 1;
       ++flips;
     }
