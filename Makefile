@@ -5,8 +5,9 @@ CMAKE_FLAGS ?=
 MODEL ?= ../shared/models/horse.ply
 TARGET ?= 5000
 DEMO_OUT ?= out/demo
+FUZZ_SECONDS ?= 60
 
-.PHONY: all deps configure build test demo clean format
+.PHONY: all deps configure build test demo sanitize fuzz clean format
 
 all: build
 
@@ -21,6 +22,15 @@ build: configure
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j$(JOBS) --timeout 900
+
+# AddressSanitizer + UBSan build of the pipeline's tests in build/sanitize
+# (scripts/sanitize.sh); any report fails it.
+sanitize:
+	@bash scripts/sanitize.sh
+
+# Each libFuzzer target for FUZZ_SECONDS (docs/fuzzing.md).
+fuzz:
+	@bash scripts/fuzz.sh $(FUZZ_SECONDS)
 
 demo: build
 	@bash scripts/demo.sh $(BUILD) $(MODEL) $(TARGET) $(DEMO_OUT)

@@ -14,6 +14,7 @@ MODES=${MODES:-"perception curvature uniform paper"}
 JOBS=${JOBS:-2}
 WORK=${WORK:-$(mktemp -d)}
 [ -x "$BIN" ] || { echo "density-compare: no vpremesh at $BIN" >&2; exit 2; }
+mkdir -p "$WORK"
 # model target target (the second about a third of the first, or 2x the input for small ones)
 CASES=${CASES:-"igea.ply 10000 3000
 nefertiti.obj 10000 3000
@@ -32,7 +33,8 @@ suzanne.obj 600 300
 cube_no_bottom.obj 500 200"}
 
 run_one() {  # model target mode
-  local name=${1%.*} out="$WORK/$name-$2-$3"
+  local name=${1%.*}
+  local out="$WORK/$name-$2-$3"
   "$BIN" local "$M/$1" -o "$out.ply" -n "$2" --density "$3" --json >"$out.run.json" 2>"$out.err" &&
     "$BIN" eval "$M/$1" "$out.ply" --json >"$out.eval.json" 2>>"$out.err" || echo "failed" >"$out.failed"
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs ON the device machine (NVIDIA H100), from the repository root, with
 # .pack/ (scripts/device-bundle.sh) and .gl/ (the GL loader debs) carried:
-#   scripts/device-run.sh [tests|bench|all|suite|load|queue] [bench arguments...]
+#   scripts/device-run.sh [tests|bench|all|suite|load|queue|isolation|density|targets] [bench arguments...]
 # Writes under $OUT: device.txt, gpu-tests.log, bench.md; `load` (not part of
 # all) writes load.md: vpremesh-server with --device cuda and 1, 2, 4 workers,
 # driven by `vpremesh bench` closed and open loop (scripts/bench-load.sh);
@@ -59,6 +59,27 @@ if [ "$mode" = load ]; then
     MODELS="${MODELS:-.bundle/models/igea.ply:10000 .bundle/models/horse.ply:5000}" \
     bash scripts/bench-load.sh 2>"$OUT/load.err" | tee "$OUT/load.md"
   tail -5 "$OUT/load.err"
+fi
+if [ "$mode" = isolation ]; then
+  # Job processes against jobs in the server's threads (docs/isolation.md), CPU and GPU.
+  BIN=.bundle/bin DEVICE=cpu MODEL=.bundle/models/horse.ply TARGET=5000 ROUNDS=${ROUNDS:-4} REQUESTS=${REQUESTS:-5} \
+    bash scripts/bench-isolation.sh 2>"$OUT/isolation.err" | tee "$OUT/isolation.md"
+  BIN=.bundle/bin DEVICE=cuda MODEL=.bundle/models/igea.ply TARGET=10000 ROUNDS=${ROUNDS:-4} REQUESTS=${REQUESTS:-5} \
+    bash scripts/bench-isolation.sh 2>>"$OUT/isolation.err" | tee -a "$OUT/isolation.md"
+  tail -5 "$OUT/isolation.err"
+fi
+if [ "$mode" = density ]; then
+  # Every back half and density on every bundled model (docs/quality.md), JOBS at a time.
+  MODELS=.bundle/models JOBS=${JOBS:-12} WORK=/tmp/density bash scripts/density-compare.sh .bundle/bin/vpremesh |
+    tee "$OUT/density.md"
+fi
+if [ "$mode" = targets ]; then
+  # Issue 23's goal: every bundled model at 1,000, 5,000 and twice its vertex count, no crash.
+  for m in .bundle/models/*; do
+    v=$(.bundle/bin/vpremesh eval "$m" "$m" --no-visual --json 2>/dev/null | python3 -c 'import json,sys; print(json.load(sys.stdin)["reference"]["vertices"])')
+    for t in 1000 5000 $((2 * v)); do echo "$m $t"; done
+  done | xargs -P "${JOBS:-12}" -L 1 sh -c '.bundle/bin/vpremesh local "$0" -o /tmp/t-$(basename "$0")-$1.ply -n "$1" >/dev/null 2>/tmp/t-$(basename "$0")-$1.err; echo "$(basename "$0") $1 exit $?"' |
+    sort | tee "$OUT/targets.txt"
 fi
 if [ "$mode" = queue ]; then
   PATH=$PWD/.bundle/bin:$PATH BIN=.bundle/bin DEVICE=cuda RENDERER=egl PROCS="${PROCS:-2 4}" \

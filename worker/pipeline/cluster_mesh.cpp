@@ -61,7 +61,9 @@ uint64_t key2(uint32_t a, uint32_t b) {
 // whose vertices all lie on the input's boundary is the input's boundary:
 // kept (counted in *kept). Other simple loops (each vertex with one outgoing
 // boundary edge) are closed by a fan, in the orientation that continues the
-// surface. Returns how many were closed.
+// surface, from a corner none of whose diagonals is an edge already (one that
+// is would get a third face); a loop with no such corner stays open. Returns
+// how many were closed.
 template <class OnBoundary>
 size_t close_dual_holes(std::vector<std::array<uint32_t, 3>>* tris, OnBoundary on_boundary, size_t* kept) {
   std::set<std::pair<uint32_t, uint32_t>> directed;
@@ -95,8 +97,23 @@ size_t close_dual_holes(std::vector<std::array<uint32_t, 3>>* tris, OnBoundary o
       ++*kept;
       continue;
     }
+    const size_t n = loop.size();
+    auto is_edge = [&](uint32_t a, uint32_t b) { return directed.count({a, b}) || directed.count({b, a}); };
+    size_t apex = 0;
+    for (; apex < n; ++apex) {
+      bool clear = true;
+      for (size_t j = 2; j + 1 < n && clear; ++j) clear = !is_edge(loop[apex], loop[(apex + j) % n]);
+      if (clear) break;
+    }
+    if (apex == n) continue;
+    std::rotate(loop.begin(), loop.begin() + apex, loop.end());
     // The loop runs along the triangles' edges; the patch runs against it.
-    for (size_t i = 1; i + 1 < loop.size(); ++i) tris->push_back({loop[0], loop[i + 1], loop[i]});
+    for (size_t i = 1; i + 1 < n; ++i) {
+      tris->push_back({loop[0], loop[i + 1], loop[i]});
+      directed.insert({loop[0], loop[i + 1]});
+      directed.insert({loop[i + 1], loop[i]});
+      directed.insert({loop[i], loop[0]});
+    }
     ++closed;
   }
   return closed;
@@ -141,8 +158,9 @@ void drop_slivers(Mesh* mesh, std::vector<uint32_t>* source) {
 // Edge flips towards the Delaunay triangulation of the vertices on the
 // surface: an interior edge whose two opposite angles sum to more than pi is
 // flipped, unless the flip would fold the surface, cross a crease (faces
-// more than 30 degrees apart), or make an edge that exists already. The
-// vertices stay where the CVT put them; only the connectivity improves.
+// more than 30 degrees apart), or make an edge that exists already (or that
+// an earlier flip of the same pass made). The vertices stay where the CVT
+// put them; only the connectivity improves.
 void delaunay_flips(Mesh* mesh) {
   auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
   auto angle_at = [&](uint32_t o, uint32_t a, uint32_t b) {
@@ -189,6 +207,7 @@ void delaunay_flips(Mesh* mesh) {
       if (m0.dot(n0 + n1) <= 0 || m1.dot(n0 + n1) <= 0 || m0.dot(m1) < crease) continue;
       t0[0] = c, t0[1] = x, t0[2] = d;
       t1[0] = d, t1[1] = y, t1[2] = c;
+      faces_of.emplace(key2(c, d), std::array<int64_t, 2>{int64_t(f0), int64_t(f1)});  // no second c-d this pass
       touched[f0] = touched[f1] = 1;
       ++flips;
     }
