@@ -5,8 +5,8 @@
 #include <cmath>
 #include <limits>
 
-#include "pipeline/mesh.h"
-#include "pipeline/rng.h"
+#include "core/mesh.h"
+#include "core/rng.h"
 
 namespace vpr {
 namespace {

@@ -1,6 +1,6 @@
 // Stage 1 snapshots: what each backend draws, checked against the cameras'
 // own matrices and the shading formula; EGL against OSMesa where both exist.
-#include "pipeline/snapshot.h"
+#include "render/snapshot.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include <string>
 #include <thread>
 
-#include "pipeline/views.h"
+#include "render/views.h"
 #include "test_meshes.h"
 
 namespace vpr {

@@ -1,12 +1,12 @@
 // Stage 1 cameras: framing, matrix inverses, principal-axis alignment.
-#include "pipeline/views.h"
+#include "render/views.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 
-#include "pipeline/orientation.h"
+#include "render/orientation.h"
 #include "test_meshes.h"
 
 namespace vpr {

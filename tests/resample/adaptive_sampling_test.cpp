@@ -1,7 +1,7 @@
 // Stage 5 (Eq. 7-16): inverse CDFs against their equations, exact sample
 // counts against the sequential error diffusion, and the sample distribution
 // against the interpolated importance by a chi-square test.
-#include "pipeline/adaptive_sampling.h"
+#include "resample/adaptive_sampling.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>

@@ -1,7 +1,7 @@
 // Stage 6: AWLOP (Eq. 17-18). Checks the update against a direct evaluation of
 // the formulas, the geometry on a sphere (stays on it, spreads out), the
 // adaptive weight's direction, thread-count independence and bad input.
-#include "pipeline/awlop.h"
+#include "resample/awlop.h"
 
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
@@ -10,7 +10,7 @@
 #include <cmath>
 #include <vector>
 
-#include "pipeline/rng.h"
+#include "core/rng.h"
 
 namespace vpr {
 namespace {

@@ -19,14 +19,14 @@
 #include "gpu/cuda_device.h"
 #include "gpu/device_buffer.h"
 #include "io/mesh_io.h"
-#include "pipeline/distance_transform.h"
-#include "pipeline/gpu_saliency.h"
-#include "pipeline/image_saliency.h"
-#include "pipeline/inner_feature.h"
-#include "pipeline/median_filter.h"
-#include "pipeline/silhouette_feature.h"
-#include "pipeline/unproject.h"
-#include "pipeline/views.h"
+#include "saliency/distance_transform.h"
+#include "saliency/gpu_saliency.h"
+#include "saliency/image_saliency.h"
+#include "saliency/inner_feature.h"
+#include "saliency/median_filter.h"
+#include "saliency/silhouette_feature.h"
+#include "saliency/unproject.h"
+#include "render/views.h"
 
 namespace vpr {
 namespace {

@@ -1,7 +1,7 @@
 // Stage 2 (image-space saliency): each filter against an independent
 // reference (brute force or a direct double-precision formula) or against
 // shapes whose answer is known in closed form.
-#include "pipeline/image_saliency.h"
+#include "saliency/image_saliency.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -14,11 +14,11 @@
 #include <random>
 #include <vector>
 
-#include "pipeline/distance_transform.h"
-#include "pipeline/image_kernels.h"
-#include "pipeline/inner_feature.h"
-#include "pipeline/median_filter.h"
-#include "pipeline/silhouette_feature.h"
+#include "saliency/distance_transform.h"
+#include "saliency/image_kernels.h"
+#include "saliency/inner_feature.h"
+#include "saliency/median_filter.h"
+#include "saliency/silhouette_feature.h"
 
 namespace vpr {
 namespace {

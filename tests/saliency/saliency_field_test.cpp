@@ -1,7 +1,7 @@
 // Stage 4 (Algorithm 1): the k-NN graph against brute force, the advancing
 // front against BFS, and the importance field against beta^(d - 1) on shapes
 // whose depths are known by hand.
-#include "pipeline/saliency_field.h"
+#include "saliency/saliency_field.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>

@@ -1,13 +1,13 @@
 // Stage 3: pixels back to model space through the depth buffer.
-#include "pipeline/unproject.h"
+#include "saliency/unproject.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 
-#include "pipeline/snapshot.h"
-#include "pipeline/views.h"
+#include "render/snapshot.h"
+#include "render/views.h"
 #include "test_meshes.h"
 
 namespace vpr {

@@ -1,7 +1,7 @@
 // Stage 7: meshing. Every topological property is counted here from the
 // returned index buffer, independently of CGAL: edge-face incidences, directed
 // edges, vertex links, components, Euler characteristic, signed volume.
-#include "pipeline/meshing.h"
+#include "surface/meshing.h"
 
 #include <gtest/gtest.h>
 
@@ -14,8 +14,8 @@
 #include <utility>
 #include <vector>
 
-#include "pipeline/rng.h"
-#include "pipeline/vec3.h"
+#include "core/rng.h"
+#include "core/vec3.h"
 
 namespace vpr {
 namespace {

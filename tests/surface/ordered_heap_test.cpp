@@ -1,6 +1,6 @@
 // OrderedHeapScope: memory in allocation order on this thread only, stray
 // deletes tolerated, and meshing that does not depend on the heap's history.
-#include "pipeline/ordered_heap.h"
+#include "surface/ordered_heap.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include <thread>
 #include <vector>
 
-#include "pipeline/meshing.h"
+#include "surface/meshing.h"
 
 namespace vpr {
 namespace {

@@ -1,9 +1,9 @@
-#include "mesh.h"
+#include "core/mesh.h"
 
 #include <cmath>
 #include <string>
 
-#include "vec3.h"
+#include "core/vec3.h"
 
 namespace vpr {
 

@@ -6,7 +6,7 @@
 
 #include <cstdint>
 
-#include "vec3.h"
+#include "core/vec3.h"
 
 namespace vpr {
 

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "gpu/cuda_check.h"
-#include "knn_grid.cuh"
+#include "gpu/knn_grid.cuh"
 
 namespace vpr::cuda {
 namespace {

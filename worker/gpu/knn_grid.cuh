@@ -22,8 +22,8 @@
 #include <type_traits>
 
 #include "gpu/device_buffer.h"
-#include "pipeline/exec_context.h"
-#include "pipeline/status.h"
+#include "core/exec_context.h"
+#include "core/status.h"
 
 namespace vpr::cuda {
 

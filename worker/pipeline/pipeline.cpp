@@ -13,9 +13,9 @@
 #include "debug_output.h"
 #include "job_device.h"
 #ifdef VPR_HAVE_CUDA
-#include "gpu_saliency.h"
+#include "saliency/gpu_saliency.h"
 #endif
-#include "unproject.h"
+#include "saliency/unproject.h"
 
 namespace vpr {
 namespace {

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "snapshot.h"
-#include "status.h"
+#include "render/snapshot.h"
+#include "core/status.h"
 
 namespace vpr::gl {
 

@@ -1,5 +1,5 @@
 // Area-weighted principal axes of a triangle surface (see orientation.h).
-#include "orientation.h"
+#include "render/orientation.h"
 
 #include <tbb/parallel_for.h>
 

@@ -6,8 +6,8 @@
 
 #include <array>
 
-#include "mesh.h"
-#include "vec3.h"
+#include "core/mesh.h"
+#include "core/vec3.h"
 
 namespace vpr {
 

@@ -9,7 +9,7 @@
 // normal (see corner_normals): flat shading made every facet edge of a coarse
 // mesh an inner feature (spot.obj: a grid of lines over the whole cow), which
 // is tessellation, not shape.
-#include "snapshot.h"
+#include "render/snapshot.h"
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
@@ -23,8 +23,8 @@
 #include <cstring>
 #include <string>
 
-#include "gl_functions.h"
-#include "vec3.h"
+#include "render/gl_functions.h"
+#include "core/vec3.h"
 
 namespace vpr {
 

@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "image.h"
-#include "mesh.h"
-#include "status.h"
-#include "views.h"
+#include "core/image.h"
+#include "core/mesh.h"
+#include "core/status.h"
+#include "render/views.h"
 
 namespace vpr {
 

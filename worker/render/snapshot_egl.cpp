@@ -10,8 +10,8 @@
 #include <mutex>
 #include <string>
 
-#include "gl_functions.h"
-#include "snapshot.h"
+#include "render/gl_functions.h"
+#include "render/snapshot.h"
 
 namespace vpr::gl {
 namespace {

@@ -5,7 +5,7 @@
 // one side; its orthographic frustum is the tight square around the model's
 // projection plus `margin`, and its depth range hugs the model, so the whole
 // depth buffer precision goes to the surface.
-#include "views.h"
+#include "render/views.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -16,7 +16,7 @@
 #include <limits>
 #include <string>
 
-#include "orientation.h"
+#include "render/orientation.h"
 
 namespace vpr {
 namespace {

@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "mesh.h"
-#include "status.h"
-#include "vec3.h"
+#include "core/mesh.h"
+#include "core/status.h"
+#include "core/vec3.h"
 
 namespace vpr {
 

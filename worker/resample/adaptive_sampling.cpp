@@ -1,7 +1,7 @@
 // Stage 5 (Section IV-B, Eq. 7-16): visual quantity, exact integer sample
 // counts, and uniform / inverse-CDF sampling of each triangle. The per-element
 // math lives in sampling_kernels.h, shared with the GPU twin.
-#include "adaptive_sampling.h"
+#include "resample/adaptive_sampling.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

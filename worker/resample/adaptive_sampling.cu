@@ -7,7 +7,7 @@
 #include <cub/device/device_scan.cuh>
 #include <string>
 
-#include "adaptive_sampling.h"
+#include "resample/adaptive_sampling.h"
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
 

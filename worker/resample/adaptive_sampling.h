@@ -9,10 +9,10 @@
 #include <cstdint>
 #include <vector>
 
-#include "exec_context.h"
-#include "mesh.h"
-#include "sampling_kernels.h"
-#include "status.h"
+#include "core/exec_context.h"
+#include "core/mesh.h"
+#include "resample/sampling_kernels.h"
+#include "core/status.h"
 
 namespace vpr {
 

@@ -1,7 +1,7 @@
 // Stage 6 (Section V, Eq. 17-18): AWLOP on the CPU. The per-particle math is in
 // awlop_kernels.h; this file finds the neighbours (exact FLANN kd-trees) and
 // runs the Jacobi iterations over TBB.
-#include "awlop.h"
+#include "resample/awlop.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

@@ -11,10 +11,10 @@
 #include <utility>
 #include <vector>
 
-#include "awlop.h"
+#include "resample/awlop.h"
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
-#include "knn_grid.cuh"
+#include "gpu/knn_grid.cuh"
 
 namespace vpr::cuda {
 namespace {

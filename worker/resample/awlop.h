@@ -20,9 +20,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "awlop_kernels.h"
-#include "exec_context.h"
-#include "status.h"
+#include "resample/awlop_kernels.h"
+#include "core/exec_context.h"
+#include "core/status.h"
 
 namespace vpr {
 

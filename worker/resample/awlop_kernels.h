@@ -12,7 +12,7 @@
 // small next to the neighbour distances (kPaper support on a dense input).
 #pragma once
 
-#include "vec3.h"
+#include "core/vec3.h"
 
 namespace vpr {
 

@@ -9,8 +9,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "rng.h"
-#include "vec3.h"
+#include "core/rng.h"
+#include "core/vec3.h"
 
 namespace vpr {
 

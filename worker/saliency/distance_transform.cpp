@@ -6,7 +6,7 @@
 // are integers and are computed as int64; only the envelope's breakpoints are
 // doubles, and the distance at x is evaluated exactly from the winning
 // parabola, so the result is the true distance, identical at any thread count.
-#include "distance_transform.h"
+#include "saliency/distance_transform.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

@@ -14,10 +14,10 @@
 #include <string>
 #include <utility>
 
-#include "distance_transform.h"
+#include "saliency/distance_transform.h"
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
-#include "image_saliency_device.cuh"
+#include "saliency/image_saliency_device.cuh"
 
 namespace vpr::cuda {
 namespace detail {

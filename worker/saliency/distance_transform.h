@@ -3,9 +3,9 @@
 // in parallel; the GPU twin may use another parallel exact method.
 #pragma once
 
-#include "exec_context.h"
-#include "image.h"
-#include "status.h"
+#include "core/exec_context.h"
+#include "core/image.h"
+#include "core/status.h"
 
 namespace vpr {
 

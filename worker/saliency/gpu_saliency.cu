@@ -8,8 +8,8 @@
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
-#include "gpu_saliency.h"
-#include "image_saliency_device.cuh"
+#include "saliency/gpu_saliency.h"
+#include "saliency/image_saliency_device.cuh"
 
 namespace vpr::cuda {
 

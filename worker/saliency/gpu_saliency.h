@@ -9,11 +9,11 @@
 #include <cstdint>
 #include <vector>
 
-#include "exec_context.h"
-#include "image_saliency.h"
-#include "snapshot.h"
-#include "status.h"
-#include "views.h"
+#include "core/exec_context.h"
+#include "saliency/image_saliency.h"
+#include "render/snapshot.h"
+#include "core/status.h"
+#include "render/views.h"
 
 namespace vpr::cuda {
 

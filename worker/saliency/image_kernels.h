@@ -8,7 +8,7 @@
 
 #include <cstdint>
 
-#include "vec3.h"  // VPR_HD
+#include "core/vec3.h"  // VPR_HD
 
 namespace vpr {
 

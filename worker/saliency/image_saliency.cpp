@@ -2,16 +2,16 @@
 // Each step is one call into median_filter.h, inner_feature.h,
 // distance_transform.h or silhouette_feature.h; this file chains them and
 // checks the snapshot and the options.
-#include "image_saliency.h"
+#include "saliency/image_saliency.h"
 
 #include <algorithm>
 #include <cmath>
 #include <string>
 
-#include "distance_transform.h"
-#include "inner_feature.h"
-#include "median_filter.h"
-#include "silhouette_feature.h"
+#include "saliency/distance_transform.h"
+#include "saliency/inner_feature.h"
+#include "saliency/median_filter.h"
+#include "saliency/silhouette_feature.h"
 
 namespace vpr {
 

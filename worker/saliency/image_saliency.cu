@@ -10,9 +10,9 @@
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
-#include "image_saliency.h"
-#include "image_saliency_device.cuh"
-#include "inner_feature.h"
+#include "saliency/image_saliency.h"
+#include "saliency/image_saliency_device.cuh"
+#include "saliency/inner_feature.h"
 
 namespace vpr::cuda {
 namespace detail {

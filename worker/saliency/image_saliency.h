@@ -7,10 +7,10 @@
 // distance_transform.h and silhouette_feature.h.
 #pragma once
 
-#include "exec_context.h"
-#include "image.h"
-#include "snapshot.h"
-#include "status.h"
+#include "core/exec_context.h"
+#include "core/image.h"
+#include "render/snapshot.h"
+#include "core/status.h"
 
 namespace vpr {
 

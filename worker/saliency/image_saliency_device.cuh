@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "gpu/device_buffer.h"
-#include "pipeline/image_saliency.h"
-#include "pipeline/views.h"
+#include "saliency/image_saliency.h"
+#include "render/views.h"
 
 namespace vpr::cuda::detail {
 

@@ -6,7 +6,7 @@
 // comparison is done on the weighted sum in int64, so the GPU twin
 // (gaussian_sum_at and inner_feature_test in image_kernels.h) gives identical
 // pixels.
-#include "inner_feature.h"
+#include "saliency/inner_feature.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -16,7 +16,7 @@
 #include <cmath>
 #include <string>
 
-#include "image_kernels.h"
+#include "saliency/image_kernels.h"
 
 namespace vpr {
 

@@ -5,9 +5,9 @@
 
 #include <vector>
 
-#include "exec_context.h"
-#include "image.h"
-#include "status.h"
+#include "core/exec_context.h"
+#include "core/image.h"
+#include "core/status.h"
 
 namespace vpr {
 

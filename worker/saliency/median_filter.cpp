@@ -4,7 +4,7 @@
 // count of window values below it, so each pixel costs 2 * size updates and a
 // few steps of the median pointer. The GPU twin uses median_at
 // (image_kernels.h); both are exact, so they agree pixel for pixel.
-#include "median_filter.h"
+#include "saliency/median_filter.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "image_kernels.h"
+#include "saliency/image_kernels.h"
 
 namespace vpr {
 

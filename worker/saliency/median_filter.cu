@@ -7,9 +7,9 @@
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
-#include "image_kernels.h"
-#include "image_saliency_device.cuh"
-#include "median_filter.h"
+#include "saliency/image_kernels.h"
+#include "saliency/image_saliency_device.cuh"
+#include "saliency/median_filter.h"
 
 namespace vpr::cuda {
 namespace detail {

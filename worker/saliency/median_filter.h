@@ -3,9 +3,9 @@
 // majority_at in image_kernels.h) gives identical pixels.
 #pragma once
 
-#include "exec_context.h"
-#include "image.h"
-#include "status.h"
+#include "core/exec_context.h"
+#include "core/image.h"
+#include "core/status.h"
 
 namespace vpr {
 

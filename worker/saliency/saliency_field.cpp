@@ -1,6 +1,6 @@
 // Stage 4 (Section IV-A, Algorithm 1): k-NN graph, parallel advancing front and
 // the importance field I = beta^d on the mesh vertices.
-#include "saliency_field.h"
+#include "saliency/saliency_field.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

@@ -9,8 +9,8 @@
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
-#include "knn_grid.cuh"
-#include "saliency_field.h"
+#include "gpu/knn_grid.cuh"
+#include "saliency/saliency_field.h"
 
 namespace vpr::cuda {
 namespace {

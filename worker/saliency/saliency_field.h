@@ -9,9 +9,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "exec_context.h"
-#include "status.h"
-#include "vec3.h"
+#include "core/exec_context.h"
+#include "core/status.h"
+#include "core/vec3.h"
 
 namespace vpr {
 

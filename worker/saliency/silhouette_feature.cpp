@@ -1,7 +1,7 @@
 // Silhouette-feature filter (Section III-B, Eq. 4-5), CPU twin. The per-pixel
 // rules are in image_kernels.h (silhouette_at, skeleton_at, near_thick_part)
 // for the GPU twin.
-#include "silhouette_feature.h"
+#include "saliency/silhouette_feature.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "distance_transform.h"
-#include "image_kernels.h"
+#include "saliency/distance_transform.h"
+#include "saliency/image_kernels.h"
 
 namespace vpr {
 namespace {

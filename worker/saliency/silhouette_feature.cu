@@ -9,9 +9,9 @@
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
-#include "image_kernels.h"
-#include "image_saliency_device.cuh"
-#include "silhouette_feature.h"
+#include "saliency/image_kernels.h"
+#include "saliency/image_saliency_device.cuh"
+#include "saliency/silhouette_feature.h"
 
 namespace vpr::cuda {
 namespace detail {

@@ -2,9 +2,9 @@
 // silhouette that belong to thin features (legs, ears, tails).
 #pragma once
 
-#include "exec_context.h"
-#include "image.h"
-#include "status.h"
+#include "core/exec_context.h"
+#include "core/image.h"
+#include "core/status.h"
 
 namespace vpr {
 

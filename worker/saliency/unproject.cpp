@@ -1,14 +1,14 @@
 // Stage 3 (Section III-C): feature pixels back to 3D. The views are
 // orthographic, so a pixel and its depth give the surface point by one matrix
 // product with the inverse view-projection; no ray casting is needed.
-#include "unproject.h"
+#include "saliency/unproject.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <string>
 
-#include "vec3.h"
+#include "core/vec3.h"
 
 namespace vpr {
 

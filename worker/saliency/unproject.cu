@@ -13,8 +13,8 @@
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
-#include "image_saliency_device.cuh"
-#include "unproject.h"
+#include "saliency/image_saliency_device.cuh"
+#include "saliency/unproject.h"
 
 namespace vpr::cuda {
 namespace detail {

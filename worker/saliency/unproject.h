@@ -4,10 +4,10 @@
 #include <cstddef>  // image.h uses size_t without including it
 #include <vector>
 
-#include "exec_context.h"
-#include "image.h"
-#include "status.h"
-#include "views.h"
+#include "core/exec_context.h"
+#include "core/image.h"
+#include "core/status.h"
+#include "render/views.h"
 
 namespace vpr {
 

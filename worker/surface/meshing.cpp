@@ -4,9 +4,9 @@
 // oriented 2-manifold with Polygon_mesh_processing. No step adds a point: every
 // output vertex is one of the input points (duplicated where the surface
 // pinches), so the sample density AWLOP produced is the mesh's.
-#include "meshing.h"
+#include "surface/meshing.h"
 
-#include "ordered_heap.h"
+#include "surface/ordered_heap.h"
 
 #include <CGAL/Advancing_front_surface_reconstruction.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>

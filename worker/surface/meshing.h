@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "mesh.h"
-#include "status.h"
+#include "core/mesh.h"
+#include "core/status.h"
 
 namespace vpr {
 

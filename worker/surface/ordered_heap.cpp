@@ -1,4 +1,4 @@
-#include "ordered_heap.h"
+#include "surface/ordered_heap.h"
 
 #include <sys/mman.h>
 

@@ -17,7 +17,7 @@
 
 #include <cstddef>
 
-#include "status.h"
+#include "core/status.h"
 
 namespace vpr {
 
