@@ -9,7 +9,9 @@ it), to its new path from worker/: "core/mesh.h". Nothing else on the line
 changes; files that stayed in worker/pipeline/ (pipeline.h, debug_output.h,
 job_device.h) are left alone. Running it twice changes nothing.
 
-Usage: scripts/rewrite-includes.py FILE...   (edits in place, names what it changed)
+Usage: scripts/rewrite-includes.py [--also NAME=FOLDER ...] FILE...
+Edits in place and names what it changed. --also adds a file moved out of
+worker/pipeline/ later (--also surface_cvt.h=surface), treated like the others.
 """
 import os
 import re
@@ -60,7 +62,14 @@ def rewrite(path):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 2:
+    args = sys.argv[1:]
+    while len(args) >= 2 and args[0] == "--also":
+        name, _, folder = args[1].partition("=")
+        if not name or not folder:
+            sys.exit(f"--also wants NAME=FOLDER, not {args[1]}")
+        NEW_PATH[name] = f"{folder}/{name}"
+        args = args[2:]
+    if not args:
         sys.exit(__doc__)
-    for p in sys.argv[1:]:
+    for p in args:
         rewrite(p)
