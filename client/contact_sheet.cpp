@@ -6,7 +6,7 @@
 
 #include "io/mesh_io.h"
 #include "io/png_io.h"
-#include "pipeline/vec3.h"
+#include "core/vec3.h"
 
 namespace vpr::cli {
 

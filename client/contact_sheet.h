@@ -5,10 +5,10 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/mesh.h"
-#include "pipeline/snapshot.h"
-#include "pipeline/status.h"
-#include "pipeline/views.h"
+#include "core/mesh.h"
+#include "render/snapshot.h"
+#include "core/status.h"
+#include "render/views.h"
 
 namespace vpr::cli {
 

@@ -5,7 +5,7 @@
 
 #include <grpcpp/support/status_code_enum.h>
 
-#include "pipeline/status.h"
+#include "core/status.h"
 
 namespace vpr::cli {
 

@@ -1,29 +1,9 @@
 # Helpers that keep each part of the pipeline a small target of its own.
 
-option(VPR_ALLOW_PARTIAL "Skip libraries and tests whose sources are missing (development only)" OFF)
-
-function(_vpr_sources_present out)
-  set(${out} ON PARENT_SCOPE)
-  foreach(src ${ARGN})
-    if(NOT EXISTS ${src} AND NOT EXISTS ${PROJECT_SOURCE_DIR}/${src})
-      if(VPR_ALLOW_PARTIAL)
-        set(${out} OFF PARENT_SCOPE)
-      else()
-        message(FATAL_ERROR "missing source file ${src}")
-      endif()
-    endif()
-  endforeach()
-endfunction()
-
 # vpr_library(NAME SOURCES ... DEPS ...): one static library per pipeline part,
 # so that a stage and its test build on their own.
 function(vpr_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
-  _vpr_sources_present(present ${ARG_SOURCES})
-  if(NOT present)
-    message(STATUS "vpremesh: skipping ${name} (sources missing)")
-    return()
-  endif()
   add_library(${name} STATIC ${ARG_SOURCES})
   target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR}/worker)
   target_link_libraries(${name} PUBLIC ${ARG_DEPS})
@@ -35,11 +15,6 @@ endfunction()
 # at ../shared/models relative to it).
 function(vpr_test name)
   cmake_parse_arguments(ARG "" "" "SOURCES;LIBS;LABELS" ${ARGN})
-  _vpr_sources_present(present ${ARG_SOURCES})
-  if(NOT present)
-    message(STATUS "vpremesh: skipping ${name} (sources missing)")
-    return()
-  endif()
   # `make sanitize` builds and runs the tests defined while VPR_SANITIZE_THESE
   # is on (tests/CMakeLists.txt).
   if(VPR_SANITIZE AND VPR_SANITIZE_THESE)

@@ -14,7 +14,7 @@
 #include <string>
 
 #include "pipeline/pipeline.h"
-#include "pipeline/status.h"
+#include "core/status.h"
 #include "vpremesh/v1/remesh.pb.h"
 
 namespace vpr::service {

@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <string>
 
-#include "pipeline/mesh.h"
+#include "core/mesh.h"
 #include "pipeline/pipeline.h"
-#include "pipeline/status.h"
+#include "core/status.h"
 
 namespace vpr::service {
 

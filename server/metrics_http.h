@@ -15,7 +15,7 @@
 #include <string>
 #include <thread>
 
-#include "pipeline/status.h"
+#include "core/status.h"
 
 namespace vpr::service {
 

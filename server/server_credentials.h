@@ -7,7 +7,7 @@
 
 #include <memory>
 
-#include "pipeline/status.h"
+#include "core/status.h"
 #include "server/server_options.h"
 
 namespace vpr::service {

@@ -4,7 +4,7 @@
 
 #include <grpcpp/support/status.h>
 
-#include "pipeline/status.h"
+#include "core/status.h"
 #include "vpremesh/v1/remesh.pb.h"
 
 namespace vpr::service {

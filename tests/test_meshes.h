@@ -7,7 +7,7 @@
 #include <tuple>
 #include <utility>
 
-#include "pipeline/mesh.h"
+#include "core/mesh.h"
 
 namespace vpr::testing {
 

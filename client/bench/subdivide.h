@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <unordered_map>
 
-#include "pipeline/mesh.h"
+#include "core/mesh.h"
 
 namespace vpr::bench {
 

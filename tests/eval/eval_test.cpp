@@ -11,7 +11,7 @@
 
 #include "eval/hausdorff.h"
 #include "eval/mesh_quality.h"
-#include "pipeline/vec3.h"
+#include "core/vec3.h"
 
 namespace vpr {
 namespace {

@@ -16,7 +16,7 @@
 
 #include "eval/mesh_quality.h"
 #include "fuzz/pipeline_input.h"
-#include "pipeline/meshing.h"
+#include "surface/meshing.h"
 #include "pipeline/pipeline.h"
 
 namespace {

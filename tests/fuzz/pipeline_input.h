@@ -24,8 +24,8 @@
 #include <optional>
 #include <vector>
 
-#include "pipeline/mesh.h"
-#include "pipeline/surface_density.h"
+#include "core/mesh.h"
+#include "surface/surface_density.h"
 
 namespace vpr::fuzz {
 

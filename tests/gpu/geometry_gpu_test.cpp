@@ -16,10 +16,10 @@
 
 #include "gpu/cuda_device.h"
 #include "io/mesh_io.h"
-#include "pipeline/adaptive_sampling.h"
-#include "pipeline/awlop.h"
-#include "pipeline/rng.h"
-#include "pipeline/saliency_field.h"
+#include "resample/adaptive_sampling.h"
+#include "resample/awlop.h"
+#include "core/rng.h"
+#include "saliency/saliency_field.h"
 #include "test_meshes.h"
 
 namespace vpr {

@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/rng.h"
-#include "pipeline/vec3.h"
+#include "core/rng.h"
+#include "core/vec3.h"
 
 namespace vpr {
 namespace {

@@ -6,8 +6,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "pipeline/mesh.h"
-#include "pipeline/status.h"
+#include "core/mesh.h"
+#include "core/status.h"
 
 namespace vpr {
 

@@ -10,7 +10,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "pipeline/vec3.h"
+#include "core/vec3.h"
 
 namespace vpr {
 namespace {

@@ -3,7 +3,7 @@
 
 #include <cstddef>
 
-#include "pipeline/mesh.h"
+#include "core/mesh.h"
 
 namespace vpr {
 

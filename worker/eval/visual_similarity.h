@@ -7,12 +7,12 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/image.h"
-#include "pipeline/image_saliency.h"
-#include "pipeline/mesh.h"
-#include "pipeline/snapshot.h"
-#include "pipeline/status.h"
-#include "pipeline/views.h"
+#include "core/image.h"
+#include "saliency/image_saliency.h"
+#include "core/mesh.h"
+#include "render/snapshot.h"
+#include "core/status.h"
+#include "render/views.h"
 
 namespace vpr {
 

@@ -7,8 +7,8 @@
 
 #include <string>
 
-#include "pipeline/exec_context.h"
-#include "pipeline/status.h"
+#include "core/exec_context.h"
+#include "core/status.h"
 
 namespace vpr::cuda {
 

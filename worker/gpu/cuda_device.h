@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/status.h"
+#include "core/status.h"
 
 namespace vpr {
 

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/mesh.h"
-#include "pipeline/status.h"
+#include "core/mesh.h"
+#include "core/status.h"
 
 namespace vpr {
 

@@ -12,8 +12,8 @@
 #include <string_view>
 #include <vector>
 
-#include "pipeline/mesh.h"
-#include "pipeline/status.h"
+#include "core/mesh.h"
+#include "core/status.h"
 
 namespace vpr::io_detail {
 

@@ -3,8 +3,8 @@
 
 #include <string>
 
-#include "pipeline/image.h"
-#include "pipeline/status.h"
+#include "core/image.h"
+#include "core/status.h"
 
 namespace vpr {
 

@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "pipeline/mesh.h"
-#include "pipeline/status.h"
+#include "core/mesh.h"
+#include "core/status.h"
 
 namespace vpr::peers {
 

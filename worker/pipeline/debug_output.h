@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "image_saliency.h"
-#include "snapshot.h"
-#include "status.h"
-#include "views.h"
+#include "saliency/image_saliency.h"
+#include "render/snapshot.h"
+#include "core/status.h"
+#include "render/views.h"
 
 namespace vpr {
 

@@ -6,8 +6,8 @@
 #include <memory>
 #include <string>
 
-#include "exec_context.h"
-#include "status.h"
+#include "core/exec_context.h"
+#include "core/status.h"
 
 namespace vpr {
 

@@ -1,6 +1,6 @@
 #include "pipeline.h"
 
-#include "surface_refine.h"
+#include "surface/surface_refine.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -15,9 +15,9 @@
 #include "debug_output.h"
 #include "job_device.h"
 #ifdef VPR_HAVE_CUDA
-#include "gpu_saliency.h"
+#include "saliency/gpu_saliency.h"
 #endif
-#include "unproject.h"
+#include "saliency/unproject.h"
 
 namespace vpr {
 namespace {

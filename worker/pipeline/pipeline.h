@@ -9,20 +9,20 @@
 #include <string>
 #include <vector>
 
-#include "adaptive_sampling.h"
-#include "awlop.h"
-#include "cluster_mesh.h"
-#include "exec_context.h"
-#include "image_saliency.h"
+#include "resample/adaptive_sampling.h"
+#include "resample/awlop.h"
+#include "core/exec_context.h"
+#include "saliency/image_saliency.h"
 #include "job_device.h"
-#include "mesh.h"
-#include "meshing.h"
-#include "saliency_field.h"
-#include "snapshot.h"
-#include "status.h"
-#include "surface_cvt.h"
-#include "surface_density.h"
-#include "views.h"
+#include "core/mesh.h"
+#include "surface/meshing.h"
+#include "saliency/saliency_field.h"
+#include "render/snapshot.h"
+#include "core/status.h"
+#include "render/views.h"
+#include "surface/cluster_mesh.h"
+#include "surface/surface_cvt.h"
+#include "surface/surface_density.h"
 
 namespace vpr {
 

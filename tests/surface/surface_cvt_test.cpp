@@ -1,0 +1,253 @@
+// The surface back half: refinement, the CVT on the input surface, its dual.
+// Shapes are generated here; every property is counted from the returned
+// index buffer: boundary loops, non-manifold edges, closedness, distances.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <vector>
+
+#include "surface/cluster_mesh.h"
+#include "surface/surface_cvt.h"
+#include "surface/surface_density.h"
+#include "surface/surface_refine.h"
+#include "core/vec3.h"
+
+namespace vpr {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A box centred at the origin, each face an n x n grid (two triangles per
+// cell, counter-clockwise from outside); faces share their border vertices
+// by exact position (refine_surface welds them). skip(face, i, j): leave a cell out.
+template <class Skip>
+Mesh box(double sx, double sy, double sz, int n, Skip skip) {
+  Mesh m;
+  const double half[3] = {sx / 2, sy / 2, sz / 2};
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = -1; side <= 1; side += 2) {
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      const uint32_t base = uint32_t(m.vertex_count());
+      for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+          double p[3];
+          p[axis] = side * half[axis];
+          p[u] = -half[u] + 2 * half[u] * i / n;
+          p[v] = -half[v] + 2 * half[v] * j / n;
+          m.positions.insert(m.positions.end(), {float(p[0]), float(p[1]), float(p[2])});
+        }
+      const int face = axis * 2 + (side > 0);
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          if (skip(face, i, j)) continue;
+          const uint32_t a = base + j * (n + 1) + i, b = a + 1, c = a + (n + 1), d = c + 1;
+          // (u, v, axis) is right-handed: counter-clockwise seen from +axis.
+          if (side > 0) m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
+          else m.indices.insert(m.indices.end(), {a, d, b, a, c, d});
+        }
+    }
+  return m;
+}
+
+Mesh box(double sx, double sy, double sz, int n) {
+  return box(sx, sy, sz, n, [](int, int, int) { return false; });
+}
+
+// An open tube: radius r, height h, seg x rings grid, no caps.
+Mesh tube(double r, double h, int seg, int rings) {
+  Mesh m;
+  for (int j = 0; j <= rings; ++j)
+    for (int i = 0; i < seg; ++i) {
+      const double a = 2 * kPi * i / seg;
+      m.positions.insert(m.positions.end(), {float(r * std::cos(a)), float(r * std::sin(a)), float(-h / 2 + h * j / rings)});
+    }
+  for (int j = 0; j < rings; ++j)
+    for (int i = 0; i < seg; ++i) {
+      const uint32_t a = j * seg + i, b = j * seg + (i + 1) % seg, c = a + seg, d = b + seg;
+      m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
+    }
+  return m;
+}
+
+struct Counts {
+  size_t boundary_edges = 0, non_manifold_edges = 0, loops = 0;
+};
+
+Counts count(const Mesh& m) {
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (size_t f = 0; f < m.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = m.indices[3 * f + c], b = m.indices[3 * f + (c + 1) % 3];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  Counts k;
+  std::map<uint32_t, std::vector<uint32_t>> link;
+  for (const auto& [e, n] : uses) {
+    k.boundary_edges += n == 1;
+    k.non_manifold_edges += n > 2;
+    if (n == 1) {
+      link[e.first].push_back(e.second);
+      link[e.second].push_back(e.first);
+    }
+  }
+  std::set<uint32_t> seen;  // boundary loops: components of the boundary edges
+  for (const auto& [v, _] : link) {
+    if (seen.count(v)) continue;
+    ++k.loops;
+    std::vector<uint32_t> stack = {v};
+    seen.insert(v);
+    while (!stack.empty()) {
+      const uint32_t x = stack.back();
+      stack.pop_back();
+      for (uint32_t y : link[x])
+        if (seen.insert(y).second) stack.push_back(y);
+    }
+  }
+  return k;
+}
+
+double volume(const Mesh& m) {
+  double v = 0;
+  for (size_t f = 0; f < m.face_count(); ++f) {
+    const Vec3d a = load3d(m.positions.data(), m.indices[3 * f]), b = load3d(m.positions.data(), m.indices[3 * f + 1]),
+                c = load3d(m.positions.data(), m.indices[3 * f + 2]);
+    v += dot(a, cross(b, c)) / 6;
+  }
+  return v;
+}
+
+// The whole back half on `input` (uniform or curvature density).
+Mesh remesh(const Mesh& input, uint32_t target, DensityMode mode, CvtStats* cvt = nullptr) {
+  const std::vector<float> ones(input.vertex_count(), 1.0f);
+  const std::vector<float> d = vertex_density(input, ones, mode);
+  double area = 0;
+  for (double a : face_areas(input)) area += a;
+  const double spacing = std::sqrt(2 * area / (std::sqrt(3.0) * target));
+  auto refined = refine_surface(input, d, 1, spacing / 4, 10'000'000);
+  EXPECT_TRUE(refined.ok()) << refined.status().to_string();
+  std::vector<double> mass = vertex_areas(refined->mesh);
+  for (size_t v = 0; v < mass.size(); ++v) mass[v] *= double(refined->value[v]) * refined->value[v];
+  std::vector<uint32_t> label;
+  CvtStats stats;
+  EXPECT_TRUE(surface_cvt(refined->mesh, mass, target, {}, &label, &stats).ok());
+  if (cvt) *cvt = stats;
+  Mesh out;
+  std::vector<uint32_t> cell;
+  const Status s = mesh_clusters(refined->mesh, label, target, &out, &cell, nullptr);
+  EXPECT_TRUE(s.ok()) << s.to_string();
+  return out;
+}
+
+TEST(SurfaceRefineTest, SplitsLongEdgesAndKeepsTheShape) {
+  const Mesh cube = box(1, 1, 1, 1);  // 12 triangles, welded at the corners
+  std::vector<float> value(cube.vertex_count());
+  for (size_t v = 0; v < value.size(); ++v) value[v] = cube.positions[3 * v];
+  auto r = refine_surface(cube, value, 1, 0.1, 1'000'000);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(count(r->mesh).boundary_edges, 0u);  // welded and conforming
+  EXPECT_NEAR(volume(r->mesh), 1.0, 1e-6);
+  for (size_t f = 0; f < r->mesh.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const Vec3d a = load3d(r->mesh.positions.data(), r->mesh.indices[3 * f + c]);
+      const Vec3d b = load3d(r->mesh.positions.data(), r->mesh.indices[3 * f + (c + 1) % 3]);
+      ASSERT_LE(norm(a - b), 0.1 + 1e-9);
+    }
+  for (size_t v = 0; v < r->mesh.vertex_count(); ++v)  // the value is linear in x: interpolated exactly
+    ASSERT_NEAR(r->value[v], r->mesh.positions[3 * v], 1e-6);
+}
+
+TEST(SurfaceCvtTest, EnergyFallsEverySweepAndStopsOnItsTolerance) {
+  CvtStats stats;
+  const Mesh out = remesh(box(1, 0.7, 0.4, 12), 400, DensityMode::kUniform, &stats);
+  ASSERT_GE(stats.energy.size(), 2u);
+  for (size_t i = 1; i < stats.energy.size(); ++i) EXPECT_LE(stats.energy[i], stats.energy[i - 1]) << i;
+  EXPECT_TRUE(stats.converged);
+  EXPECT_LT(stats.sweeps, CvtOptions{}.max_sweeps);
+  EXPECT_LT(stats.energy.back(), 0.9 * stats.energy.front());
+  EXPECT_NEAR(double(out.vertex_count()), 400.0, 8.0);  // +-2%
+}
+
+TEST(SurfaceCvtTest, CubeKeepsItsCornersAndEdges) {
+  const Mesh out = remesh(box(1, 1, 1, 10), 600, DensityMode::kCurvature);
+  const double diag = std::sqrt(3.0);
+  for (int corner = 0; corner < 8; ++corner) {
+    const Vec3d c{(corner & 1) ? 0.5 : -0.5, (corner & 2) ? 0.5 : -0.5, (corner & 4) ? 0.5 : -0.5};
+    double best = INFINITY;
+    for (size_t v = 0; v < out.vertex_count(); ++v) best = std::min(best, norm(load3d(out.positions.data(), v) - c));
+    EXPECT_LT(best, 1e-4 * diag) << "corner " << corner;
+  }
+  // Every vertex on the cube's surface, and the edges: every output edge
+  // between two vertices on one cube edge lies on it (no chamfer), and each
+  // cube edge is covered end to end by such output edges.
+  size_t on_edges = 0;
+  for (size_t v = 0; v < out.vertex_count(); ++v) {
+    const Vec3d p = load3d(out.positions.data(), v);
+    const double m = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+    EXPECT_NEAR(m, 0.5, 1e-5);
+    int at_face = (std::abs(std::abs(p.x) - 0.5) < 1e-5) + (std::abs(std::abs(p.y) - 0.5) < 1e-5) +
+                  (std::abs(std::abs(p.z) - 0.5) < 1e-5);
+    on_edges += at_face >= 2;
+  }
+  EXPECT_GE(on_edges, 12u * 3);  // several vertices along each edge, not only the corners
+  const Counts k = count(out);
+  EXPECT_EQ(k.boundary_edges, 0u);
+  EXPECT_EQ(k.non_manifold_edges, 0u);
+  EXPECT_NEAR(volume(out), 1.0, 0.01);  // a chamfered cube of this size would lose several percent
+}
+
+TEST(SurfaceCvtTest, ThinPlateStaysClosedWithBothFacesApart) {
+  const Mesh plate = box(1, 1, 0.01, 40);  // thickness 1% of its length
+  const Mesh out = remesh(plate, 2000, DensityMode::kUniform);
+  const Counts k = count(out);
+  EXPECT_EQ(k.boundary_edges, 0u);
+  EXPECT_EQ(k.non_manifold_edges, 0u);
+  EXPECT_NEAR(double(out.vertex_count()), 2000.0, 40.0);
+  // Both sheets keep their vertices, and the volume between them survives
+  // (collapsed sheets would give none).
+  size_t top = 0, bottom = 0;
+  for (size_t v = 0; v < out.vertex_count(); ++v) {
+    top += out.positions[3 * v + 2] > 0.0049f;
+    bottom += out.positions[3 * v + 2] < -0.0049f;
+  }
+  EXPECT_GT(top, 500u);
+  EXPECT_GT(bottom, 500u);
+  EXPECT_NEAR(volume(out), 0.01, 0.001);
+}
+
+TEST(SurfaceCvtTest, WindowAndOpenEndsStayOpen) {
+  // A box with a square window through its +x side: one boundary loop.
+  const Mesh window = box(1, 1, 1, 12, [](int face, int i, int j) { return face == 1 && i >= 4 && i < 8 && j >= 4 && j < 8; });
+  const Mesh w = remesh(window, 800, DensityMode::kUniform);
+  EXPECT_EQ(count(w).loops, 1u);
+  EXPECT_EQ(count(w).non_manifold_edges, 0u);
+  // An open cylinder keeps both rims.
+  const Mesh t = remesh(tube(0.5, 1.0, 48, 24), 600, DensityMode::kUniform);
+  EXPECT_EQ(count(t).loops, 2u);
+  EXPECT_EQ(count(t).non_manifold_edges, 0u);
+  // Rim vertices lie on the rims.
+  size_t rim = 0;
+  for (size_t v = 0; v < t.vertex_count(); ++v) rim += std::abs(std::abs(t.positions[3 * v + 2]) - 0.5f) < 1e-5f;
+  EXPECT_GE(rim, 2u * 10);
+}
+
+TEST(SurfaceCvtTest, SmallPartsAreKept) {
+  // Three closed boxes of sizes 1, 0.1 and 0.05: each gets vertices and stays closed.
+  Mesh m;
+  for (double s : {1.0, 0.1, 0.05}) {
+    Mesh b = box(s, s, s, 6);
+    const uint32_t base = uint32_t(m.vertex_count());
+    for (size_t i = 0; i < b.positions.size(); ++i) m.positions.push_back(b.positions[i] + (i % 3 == 0 ? float(3 * s) : 0.0f));
+    for (uint32_t v : b.indices) m.indices.push_back(base + v);
+  }
+  const Mesh out = remesh(m, 300, DensityMode::kUniform);
+  EXPECT_EQ(count(out).boundary_edges, 0u);
+  size_t small = 0;  // vertices of the two small boxes (x > 0.2, beside the big one at 3)
+  for (size_t v = 0; v < out.vertex_count(); ++v) small += out.positions[3 * v] < 0.5f;
+  EXPECT_GE(small, 8u);
+}
+
+}  // namespace
+}  // namespace vpr

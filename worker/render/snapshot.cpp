@@ -1,0 +1,495 @@
+// Stage 1 (Section III): snapshots. The paper renders each view with OpenGL and
+// reads back the colour and depth buffers; image-space saliency (stage 2) works
+// on the gray image, unprojection (stage 3) on the depth buffer.
+//
+// Shading is ours, chosen for polygon soups whose faces have no consistent
+// orientation: two-sided, gray = 255 * (0.15 + 0.85 |n . l|), with l a
+// headlight tilted 25 degrees up and to the left of the view direction so that
+// creases facing the camera still differ in brightness. n is a smooth corner
+// normal (see corner_normals): flat shading made every facet edge of a coarse
+// mesh an inner feature (spot.obj: a grid of lines over the whole cow), which
+// is tessellation, not shape.
+#include "render/snapshot.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <array>
+#include <numeric>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "render/gl_functions.h"
+#include "core/vec3.h"
+
+namespace vpr {
+
+StatusOr<RendererKind> parse_renderer_kind(const std::string& name) {
+  if (name == "auto") return RendererKind::kAuto;
+  if (name == "egl") return RendererKind::kEgl;
+  if (name == "osmesa") return RendererKind::kOsmesa;
+  return invalid_argument("unknown renderer '" + name + "'; expected one of: auto, egl, osmesa");
+}
+
+StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind) {
+  if (kind == RendererKind::kEgl) return gl::create_egl_renderer();
+  if (kind == RendererKind::kOsmesa) return gl::create_osmesa_renderer();
+  auto egl = gl::create_egl_renderer();
+  if (egl.ok()) return egl;
+  auto osmesa = gl::create_osmesa_renderer();
+  if (osmesa.ok()) return osmesa;
+  return unavailable("no renderer could be created: egl: " + egl.status().message() +
+                     "; osmesa: " + osmesa.status().message());
+}
+
+namespace gl {
+namespace {
+
+constexpr double kSmoothingAngleDeg = 60;   // faces meeting at a sharper angle keep their crease
+constexpr double kAmbient = 0.15;           // gray floor, so grazing faces stay distinct from background
+constexpr double kLightTiltDegrees = 25.0;  // headlight tilt toward the view's upper left
+constexpr GLenum kMultisample = 0x809D;     // GL_MULTISAMPLE (GL 1.3)
+// Vertices per glDrawArrays call: keeps any one call well inside driver limits
+// for meshes of tens of millions of faces.
+constexpr GLsizei kDrawChunk = 3 * (1 << 20);
+
+template <class F>
+bool load_one(ProcLoader loader, const char* name, F* slot) {
+  *slot = reinterpret_cast<F>(loader(name));
+  return *slot != nullptr;
+}
+
+std::string hex(unsigned v) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "0x%04X", v);
+  return buf;
+}
+
+Vec3d unit(Vec3d v) {
+  const double n = norm(v);
+  return n > 0 ? v * (1.0 / n) : v;
+}
+
+// Smooth normals per corner, independent of face orientation and of whether
+// the faces share vertex indices (vertices are welded by exact position here,
+// for shading only, so a soup shades like the mesh it came from). The normal
+// of corner k of face f averages the area-weighted normals of the faces around
+// that position that lie within kSmoothingAngleDeg of f's, each flipped to f's
+// side first. kept_faces: the #K non-degenerate faces drawn; face_normals and
+// area_normals (cross products, length = 2 area) are theirs. Returns #K x 3.
+std::vector<Vec3> corner_normals(const Mesh& mesh, const std::vector<uint32_t>& kept_faces,
+                                 const std::vector<Vec3>& face_normals, const std::vector<Vec3d>& area_normals) {
+  const size_t nv = mesh.vertex_count(), nk = kept_faces.size();
+  // Weld by exact position, in parallel: vertex ids sorted by their coordinate
+  // bits (ties by id); each run of equal positions is one welded vertex.
+  using Key = std::array<uint32_t, 3>;
+  auto key = [&](uint32_t v) {
+    Key k;
+    std::memcpy(k.data(), &mesh.positions[3 * size_t(v)], sizeof k);
+    return k;
+  };
+  std::vector<uint32_t> order(nv);
+  std::iota(order.begin(), order.end(), 0u);
+  tbb::parallel_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    const Key ka = key(a), kb = key(b);
+    return ka != kb ? ka < kb : a < b;
+  });
+  std::vector<uint32_t> weld(nv);
+  uint32_t groups = 0;
+  for (size_t i = 0; i < nv; ++i) {
+    if (i > 0 && key(order[i]) != key(order[i - 1])) ++groups;
+    weld[order[i]] = groups;
+  }
+  if (nv > 0) ++groups;
+  order = {};
+
+  // Faces around each welded vertex (CSR), each list in face order: a fixed
+  // summation order whatever the thread count (filled in parallel, then sorted).
+  auto corner_vertex = [&](size_t c) { return weld[mesh.indices[3 * size_t(kept_faces[c / 3]) + c % 3]]; };
+  std::vector<uint32_t> start(size_t(groups) + 1, 0), faces(3 * nk);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t c = r.begin(); c < r.end(); ++c) __atomic_fetch_add(&start[corner_vertex(c) + 1], 1u, __ATOMIC_RELAXED);
+  });
+  for (size_t v = 0; v < groups; ++v) start[v + 1] += start[v];
+  std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t c = r.begin(); c < r.end(); ++c)
+      faces[__atomic_fetch_add(&fill[corner_vertex(c)], 1u, __ATOMIC_RELAXED)] = uint32_t(c / 3);
+  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, groups, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v < r.end(); ++v) std::sort(faces.begin() + start[v], faces.begin() + start[v + 1]);
+  });
+
+  const float min_cos = float(std::cos(kSmoothingAngleDeg * M_PI / 180.0));
+  std::vector<Vec3> out(3 * nk);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t c = r.begin(); c < r.end(); ++c) {
+      const Vec3 own = face_normals[c / 3];
+      Vec3d acc{0, 0, 0};
+      const uint32_t v = corner_vertex(c);
+      for (uint32_t i = start[v]; i < start[v + 1]; ++i) {
+        const uint32_t g = faces[i];
+        const float cosine = dot(face_normals[g], own);
+        if (std::abs(cosine) < min_cos) continue;
+        acc = acc + (cosine < 0 ? -1.0 : 1.0) * area_normals[g];
+      }
+      const double len = norm(acc);
+      out[c] = len > 0 ? Vec3{float(acc.x / len), float(acc.y / len), float(acc.z / len)} : own;
+    }
+  });
+  return out;
+}
+
+// The light of one view, in model space (same frame as the face normals).
+Vec3d view_light(const View& view) {
+  // The view's right and up directions in model space, from its inverse
+  // projection: the images of NDC +x and +y, relative to the NDC origin.
+  const Vec3d o = transform_point(view.inv_view_proj, {0, 0, 0});
+  const Vec3d right = unit(transform_point(view.inv_view_proj, {1, 0, 0}) - o);
+  const Vec3d up = unit(transform_point(view.inv_view_proj, {0, 1, 0}) - o);
+  const Vec3d toward{view.toward_camera.x, view.toward_camera.y, view.toward_camera.z};
+  const double t = kLightTiltDegrees * M_PI / 180.0;
+  return unit(std::cos(t) * unit(toward) + std::sin(t) * unit(up - right));
+}
+
+}  // namespace
+
+#ifndef VPR_HAVE_EGL
+StatusOr<std::unique_ptr<Renderer>> create_egl_renderer() {
+  return unavailable("this build has no EGL support (VPR_EGL=OFF)");
+}
+#endif
+#ifndef VPR_HAVE_OSMESA
+StatusOr<std::unique_ptr<Renderer>> create_osmesa_renderer() {
+  return unavailable("this build has no OSMesa support (VPR_OSMESA=OFF)");
+}
+#endif
+
+bool Functions::has_framebuffer_objects() const {
+  return GenFramebuffers && DeleteFramebuffers && BindFramebuffer && GenRenderbuffers && DeleteRenderbuffers &&
+         BindRenderbuffer && RenderbufferStorage && FramebufferRenderbuffer && CheckFramebufferStatus;
+}
+
+Status load_functions(ProcLoader loader, Functions* gl) {
+  std::string missing;
+#define VPR_LOAD(field, name) \
+  if (!load_one(loader, name, &gl->field)) missing += std::string(missing.empty() ? "" : ", ") + name
+  VPR_LOAD(GetString, "glGetString");
+  VPR_LOAD(GetError, "glGetError");
+  VPR_LOAD(GetIntegerv, "glGetIntegerv");
+  VPR_LOAD(Enable, "glEnable");
+  VPR_LOAD(Disable, "glDisable");
+  VPR_LOAD(Viewport, "glViewport");
+  VPR_LOAD(ClearColor, "glClearColor");
+  VPR_LOAD(ClearDepth, "glClearDepth");
+  VPR_LOAD(Clear, "glClear");
+  VPR_LOAD(DepthFunc, "glDepthFunc");
+  VPR_LOAD(DepthMask, "glDepthMask");
+  VPR_LOAD(DepthRange, "glDepthRange");
+  VPR_LOAD(ShadeModel, "glShadeModel");
+  VPR_LOAD(PolygonMode, "glPolygonMode");
+  VPR_LOAD(MatrixMode, "glMatrixMode");
+  VPR_LOAD(LoadMatrixd, "glLoadMatrixd");
+  VPR_LOAD(LoadIdentity, "glLoadIdentity");
+  VPR_LOAD(EnableClientState, "glEnableClientState");
+  VPR_LOAD(DisableClientState, "glDisableClientState");
+  VPR_LOAD(VertexPointer, "glVertexPointer");
+  VPR_LOAD(ColorPointer, "glColorPointer");
+  VPR_LOAD(DrawArrays, "glDrawArrays");
+  VPR_LOAD(PixelStorei, "glPixelStorei");
+  VPR_LOAD(ReadBuffer, "glReadBuffer");
+  VPR_LOAD(ReadPixels, "glReadPixels");
+  VPR_LOAD(Finish, "glFinish");
+#undef VPR_LOAD
+  if (!missing.empty()) return unavailable("the GL library lacks " + missing);
+
+  const bool buffers = load_one(loader, "glGenBuffers", &gl->GenBuffers) &
+                       load_one(loader, "glDeleteBuffers", &gl->DeleteBuffers) &
+                       load_one(loader, "glBindBuffer", &gl->BindBuffer) &
+                       load_one(loader, "glBufferData", &gl->BufferData) &
+                       load_one(loader, "glBufferSubData", &gl->BufferSubData);
+  if (!buffers) gl->GenBuffers = nullptr;
+
+  // Framebuffer objects: core names first, then the EXT extension's.
+  const char* suffixes[] = {"", "EXT"};
+  for (const char* s : suffixes) {
+    auto name = [s](const char* base) { return std::string(base) + s; };
+    bool all = load_one(loader, name("glGenFramebuffers").c_str(), &gl->GenFramebuffers);
+    all &= load_one(loader, name("glDeleteFramebuffers").c_str(), &gl->DeleteFramebuffers);
+    all &= load_one(loader, name("glBindFramebuffer").c_str(), &gl->BindFramebuffer);
+    all &= load_one(loader, name("glGenRenderbuffers").c_str(), &gl->GenRenderbuffers);
+    all &= load_one(loader, name("glDeleteRenderbuffers").c_str(), &gl->DeleteRenderbuffers);
+    all &= load_one(loader, name("glBindRenderbuffer").c_str(), &gl->BindRenderbuffer);
+    all &= load_one(loader, name("glRenderbufferStorage").c_str(), &gl->RenderbufferStorage);
+    all &= load_one(loader, name("glFramebufferRenderbuffer").c_str(), &gl->FramebufferRenderbuffer);
+    all &= load_one(loader, name("glCheckFramebufferStatus").c_str(), &gl->CheckFramebufferStatus);
+    if (all) break;
+  }
+  return Status::Ok();
+}
+
+std::string renderer_string(const Functions& gl) {
+  auto str = [&](GLenum e) {
+    const GLubyte* s = gl.GetString(e);
+    return s ? std::string(reinterpret_cast<const char*>(s)) : std::string("?");
+  };
+  return str(GL_RENDERER) + " (" + str(GL_VENDOR) + ")";
+}
+
+Status ensure_framebuffer(const Functions& gl, int width, int height, Framebuffer* fb) {
+  if (!gl.has_framebuffer_objects()) return unavailable("framebuffer objects are not supported");
+  if (fb->fbo != 0 && fb->width >= width && fb->height >= height) {
+    gl.BindFramebuffer(GL_FRAMEBUFFER, fb->fbo);
+    return Status::Ok();
+  }
+  const int w = std::max(width, fb->width), h = std::max(height, fb->height);
+  destroy_framebuffer(gl, fb);
+  GLint max_size = 0;
+  gl.GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
+  if (w > max_size || h > max_size)
+    return resource_exhausted("snapshot of " + std::to_string(w) + "x" + std::to_string(h) +
+                              " exceeds the GL renderbuffer limit of " + std::to_string(max_size));
+  gl.GetError();  // clear stale errors so the check below is about this setup
+  gl.GenFramebuffers(1, &fb->fbo);
+  gl.BindFramebuffer(GL_FRAMEBUFFER, fb->fbo);
+  gl.GenRenderbuffers(1, &fb->color);
+  gl.BindRenderbuffer(GL_RENDERBUFFER, fb->color);
+  gl.RenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
+  gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, fb->color);
+  gl.GenRenderbuffers(1, &fb->depth);
+  gl.BindRenderbuffer(GL_RENDERBUFFER, fb->depth);
+  gl.RenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+  gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, fb->depth);
+  const GLenum status = gl.CheckFramebufferStatus(GL_FRAMEBUFFER);
+  const GLenum error = gl.GetError();
+  fb->width = w;
+  fb->height = h;
+  if (status != GL_FRAMEBUFFER_COMPLETE || error != GL_NO_ERROR) {
+    destroy_framebuffer(gl, fb);
+    return unavailable("framebuffer object incomplete (status " + hex(status) + ", GL error " + hex(error) + ")");
+  }
+  return Status::Ok();
+}
+
+void destroy_framebuffer(const Functions& gl, Framebuffer* fb) {
+  if (fb->fbo) {
+    gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl.DeleteFramebuffers(1, &fb->fbo);
+  }
+  if (fb->color) gl.DeleteRenderbuffers(1, &fb->color);
+  if (fb->depth) gl.DeleteRenderbuffers(1, &fb->depth);
+  *fb = Framebuffer{};
+}
+
+void max_view_size(const std::vector<View>& views, int* width, int* height) {
+  *width = 0;
+  *height = 0;
+  for (const View& v : views) {
+    *width = std::max(*width, v.width);
+    *height = std::max(*height, v.height);
+  }
+}
+
+std::string RenderBreakdown::to_string() const {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "prep %.1f ms, upload %.1f ms, draw %.1f ms, readback %.1f ms, convert %.1f ms", prep,
+                upload, draw, readback, convert);
+  return buf;
+}
+
+Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
+                    RenderBreakdown* breakdown) {
+  assert(out != nullptr);
+  RenderBreakdown local;
+  RenderBreakdown& bd = breakdown ? *breakdown : local;
+  bd = RenderBreakdown{};
+  using Clock = std::chrono::steady_clock;
+  auto lap = [last = Clock::now()](double* into) mutable {
+    const auto now = Clock::now();
+    *into += std::chrono::duration<double, std::milli>(now - last).count();
+    last = now;
+  };
+  double unused = 0;
+  lap(&unused);
+  out->clear();
+  const size_t nf = mesh.face_count();
+  for (const View& v : views)
+    if (v.width <= 0 || v.height <= 0) return invalid_argument("view " + v.name + " has an empty image");
+  for (uint32_t i : mesh.indices)
+    if (i >= mesh.vertex_count())
+      return invalid_argument("face index " + std::to_string(i) + " is out of range; the mesh has " +
+                              std::to_string(mesh.vertex_count()) + " vertices");
+
+  // Unweld: three vertices per non-degenerate face, each face its own colour.
+  // Positions are stored relative to the bounding-box centre, and the centre
+  // goes into the (double) matrix instead: GL's float transform would
+  // otherwise lose the surface detail of a scan far from the origin.
+  const Aabb box = bounding_box(mesh);
+  const Vec3d centre{0.5 * (double(box.lo[0]) + box.hi[0]), 0.5 * (double(box.lo[1]) + box.hi[1]),
+                     0.5 * (double(box.lo[2]) + box.hi[2])};
+  // Two parallel passes: which faces are drawable (and their normals), then
+  // their corners at the slots a prefix sum gives them (face order kept).
+  std::vector<Vec3d> all_normals(nf);
+  std::vector<uint32_t> slot(nf + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f < r.end(); ++f) {
+      const Vec3d a = load3d(mesh.positions.data(), mesh.indices[3 * f]) - centre;
+      const Vec3d b = load3d(mesh.positions.data(), mesh.indices[3 * f + 1]) - centre;
+      const Vec3d c = load3d(mesh.positions.data(), mesh.indices[3 * f + 2]) - centre;
+      all_normals[f] = cross(b - a, c - a);
+      const double len = norm(all_normals[f]);
+      slot[f + 1] = (len > 0.0) && std::isfinite(len);  // degenerate: nothing to draw, no normal
+    }
+  });
+  for (size_t f = 0; f < nf; ++f) slot[f + 1] += slot[f];
+  const size_t kept = slot[nf];
+  std::vector<float> positions(9 * kept);
+  std::vector<Vec3> face_normals(kept);  // float: at 40M faces the doubles would cost another 0.5 GB
+  std::vector<Vec3d> area_normals(kept);
+  std::vector<uint32_t> kept_faces(kept);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f < r.end(); ++f) {
+      if (slot[f + 1] == slot[f]) continue;
+      const size_t k = slot[f];
+      const Vec3d n = all_normals[f];
+      const double len = norm(n);
+      face_normals[k] = Vec3{float(n.x / len), float(n.y / len), float(n.z / len)};
+      area_normals[k] = n;
+      kept_faces[k] = uint32_t(f);
+      for (int c = 0; c < 3; ++c) {
+        const Vec3d p = load3d(mesh.positions.data(), mesh.indices[3 * f + c]) - centre;
+        positions[9 * k + 3 * c] = float(p.x);
+        positions[9 * k + 3 * c + 1] = float(p.y);
+        positions[9 * k + 3 * c + 2] = float(p.z);
+      }
+    }
+  });
+  all_normals = {};
+  slot = {};
+  const std::vector<Vec3> normals = corner_normals(mesh, kept_faces, face_normals, area_normals);
+  area_normals = {};
+  const GLsizei vertex_count = GLsizei(3 * kept);
+  std::vector<uint8_t> colors(4 * 3 * kept, 255);
+
+  lap(&bd.prep);
+  gl.GetError();
+  gl.Disable(GL_DITHER);
+  gl.Disable(kMultisample);
+  gl.Disable(GL_LIGHTING);
+  gl.Disable(GL_CULL_FACE);
+  gl.Disable(GL_BLEND);
+  gl.Disable(GL_TEXTURE_2D);
+  gl.Disable(GL_POLYGON_SMOOTH);
+  gl.Enable(GL_DEPTH_TEST);
+  gl.DepthFunc(GL_LESS);
+  gl.DepthMask(GL_TRUE);
+  gl.DepthRange(0.0, 1.0);
+  gl.ShadeModel(GL_SMOOTH);
+  gl.PolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  gl.ClearColor(0.f, 0.f, 0.f, 1.f);
+  gl.ClearDepth(1.0);
+  gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
+  gl.MatrixMode(GL_MODELVIEW);
+  gl.LoadIdentity();
+  gl.EnableClientState(GL_VERTEX_ARRAY);
+  gl.EnableClientState(GL_COLOR_ARRAY);
+  // With buffer objects the positions cross to the GPU once, and only the
+  // colours (a quarter of the bytes) once per view.
+  GLuint buffers[2] = {0, 0};
+  const bool use_buffers = gl.has_vertex_buffers();
+  const GLsizeiptr position_bytes = GLsizeiptr(positions.size() * sizeof(float));
+  const GLsizeiptr color_bytes = GLsizeiptr(colors.size());
+  if (use_buffers) {
+    gl.GenBuffers(2, buffers);
+    gl.BindBuffer(GL_ARRAY_BUFFER, buffers[0]);
+    gl.BufferData(GL_ARRAY_BUFFER, position_bytes, positions.data(), GL_STATIC_DRAW);
+    gl.VertexPointer(3, GL_FLOAT, 0, nullptr);
+    gl.BindBuffer(GL_ARRAY_BUFFER, buffers[1]);
+    gl.BufferData(GL_ARRAY_BUFFER, color_bytes, nullptr, GL_STREAM_DRAW);
+    gl.ColorPointer(4, GL_UNSIGNED_BYTE, 0, nullptr);
+  } else {
+    gl.VertexPointer(3, GL_FLOAT, 0, positions.data());
+    gl.ColorPointer(4, GL_UNSIGNED_BYTE, 0, colors.data());
+  }
+  lap(&bd.upload);
+  auto release = [&] {
+    gl.DisableClientState(GL_VERTEX_ARRAY);
+    gl.DisableClientState(GL_COLOR_ARRAY);
+    if (use_buffers) {
+      gl.BindBuffer(GL_ARRAY_BUFFER, 0);
+      gl.DeleteBuffers(2, buffers);
+    }
+  };
+
+  std::vector<uint8_t> rgba;
+  std::vector<float> depth;
+  out->reserve(views.size());
+  for (const View& view : views) {
+    const Vec3d l = view_light(view);
+    const Vec3 light{float(l.x), float(l.y), float(l.z)};
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * kept, 16384), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t c = r.begin(); c < r.end(); ++c) {
+        const float shade =
+            std::clamp(float(kAmbient) + float(1.0 - kAmbient) * std::abs(dot(normals[c], light)), 0.f, 1.f);
+        const uint8_t g = uint8_t(255.f * shade + 0.5f);
+        colors[4 * c] = colors[4 * c + 1] = colors[4 * c + 2] = g;
+      }
+    });
+    lap(&bd.prep);
+    if (use_buffers) gl.BufferSubData(GL_ARRAY_BUFFER, 0, color_bytes, colors.data());
+    lap(&bd.upload);
+
+    // view_proj * translate(centre): the positions above are centre-relative.
+    Mat4 m = view.view_proj;
+    for (int r = 0; r < 4; ++r) m[12 + r] += m[0 + r] * centre.x + m[4 + r] * centre.y + m[8 + r] * centre.z;
+    gl.MatrixMode(GL_PROJECTION);
+    gl.LoadMatrixd(m.data());
+    gl.Viewport(0, 0, view.width, view.height);
+    gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    for (GLsizei first = 0; first < vertex_count; first += kDrawChunk)
+      gl.DrawArrays(GL_TRIANGLES, first, std::min(kDrawChunk, vertex_count - first));
+
+    const int w = view.width, h = view.height;
+    rgba.resize(size_t(w) * h * 4);
+    depth.resize(size_t(w) * h);
+    gl.Finish();  // the draw's own time, apart from the readback's
+    lap(&bd.draw);
+    gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    gl.ReadPixels(0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
+    lap(&bd.readback);
+    const GLenum error = gl.GetError();
+    if (error != GL_NO_ERROR) {
+      release();
+      out->clear();
+      return internal_error("GL error " + hex(error) + " while rendering view " + view.name);
+    }
+
+    Snapshot s;
+    s.gray = GrayImage(w, h, 0);
+    s.depth = FloatImage(w, h, 1.0f);
+    s.coverage = Mask(w, h, 0);
+    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+      for (int y = rows.begin(); y < rows.end(); ++y) {
+        const size_t src_row = size_t(h - 1 - y) * w;  // GL rows count from the bottom
+        for (int x = 0; x < w; ++x) {
+          const float z = depth[src_row + x];
+          if (!(z < 1.0f)) continue;
+          s.depth.at(x, y) = z;
+          s.coverage.at(x, y) = 1;
+          s.gray.at(x, y) = rgba[4 * (src_row + x)];
+        }
+      }
+    });
+    out->push_back(std::move(s));
+    lap(&bd.convert);
+  }
+  release();
+  return Status::Ok();
+}
+
+}  // namespace gl
+}  // namespace vpr

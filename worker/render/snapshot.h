@@ -1,0 +1,51 @@
+// Stage 1 (Section III): render a gray shaded image and a depth buffer per view
+// with OpenGL, headless: EGL's device platform (NVIDIA GPUs and Mesa's software
+// device alike) or OSMesa.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/mesh.h"
+#include "core/status.h"
+#include "render/views.h"
+
+namespace vpr {
+
+enum class RendererKind { kAuto, kEgl, kOsmesa };
+
+StatusOr<RendererKind> parse_renderer_kind(const std::string& name);  // "auto", "egl", "osmesa"
+
+struct Snapshot {
+  GrayImage gray;    // shaded intensity, background 0; row 0 at the top
+  FloatImage depth;  // window-space depth in [0, 1]; 1 where no surface was drawn
+  Mask coverage;     // 1 where a surface was drawn
+};
+
+// Holds one GL context. render() may be called from any thread; calls on one
+// renderer are serialized (the context is current only during a call).
+class Renderer {
+ public:
+  virtual ~Renderer() = default;
+  // "<backend>: <GL_RENDERER> (<GL_VENDOR>)", what actually renders, e.g.
+  // "egl: NVIDIA H100 80GB HBM3/PCIe/SSE2 (NVIDIA Corporation)",
+  // "osmesa: llvmpipe (LLVM 15.0.6, 256 bits) (Mesa/X.org)".
+  virtual std::string description() const = 0;
+  // Renders every view of the mesh; out receives one Snapshot per view.
+  // Shading: flat and two-sided (polygon soups need not be oriented), gray =
+  // 255 * (0.15 + 0.85 |n . l|), n the face normal, l the view direction
+  // tilted 25 degrees toward the image's upper left. Degenerate faces draw
+  // nothing. Out-of-range indices are kInvalidArgument.
+  virtual Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out) = 0;
+  // Where the last render() spent its time, for benchmarks:
+  // "prep P ms, upload U ms, draw D ms, readback R ms, convert C ms".
+  virtual std::string last_breakdown() const { return ""; }
+};
+
+// kAuto tries EGL first and falls back to OSMesa. The error names every
+// backend tried and why it failed.
+StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind);
+
+}  // namespace vpr

@@ -1,0 +1,361 @@
+#include "surface/cluster_mesh.h"
+
+#include <Eigen/Dense>
+
+#include <cmath>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <set>
+#include <unordered_map>
+
+#include "core/vec3.h"
+
+namespace vpr {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+Vector3d eig(const Vec3d& v) {
+  return {v.x, v.y, v.z};
+}
+
+// The closest point of triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
+Vector3d closest_on_triangle(const Vector3d& p, const Vector3d& a, const Vector3d& b, const Vector3d& c) {
+  const Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
+  const Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+struct Quadric {
+  Matrix3d a = Matrix3d::Zero();
+  Vector3d b = Vector3d::Zero();  // sum w n d
+  void add_plane(const Vector3d& n, const Vector3d& point, double w) {
+    a += w * n * n.transpose();
+    b += w * n * n.dot(point);
+  }
+};
+
+uint64_t key2(uint32_t a, uint32_t b) {
+  return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
+}
+
+// Holes of a triangle set: directed edges without their opposite. A loop
+// whose vertices all lie on the input's boundary is the input's boundary:
+// kept (counted in *kept). Other simple loops (each vertex with one outgoing
+// boundary edge) are closed by a fan, in the orientation that continues the
+// surface, from a corner none of whose diagonals is an edge already (one that
+// is would get a third face); a loop with no such corner stays open. Returns
+// how many were closed.
+template <class OnBoundary>
+size_t close_dual_holes(std::vector<std::array<uint32_t, 3>>* tris, OnBoundary on_boundary, size_t* kept) {
+  std::set<std::pair<uint32_t, uint32_t>> directed;
+  for (const auto& t : *tris)
+    for (int c = 0; c < 3; ++c) directed.insert({t[c], t[(c + 1) % 3]});
+  std::map<uint32_t, std::vector<uint32_t>> next;
+  for (const auto& [u, v] : directed)
+    if (!directed.count({v, u})) next[u].push_back(v);
+  std::set<uint32_t> done;
+  size_t closed = 0;
+  *kept = 0;
+  for (const auto& [start, outs] : next) {
+    if (done.count(start)) continue;
+    std::vector<uint32_t> loop;
+    bool simple = false, all_boundary = true;
+    uint32_t v = start;
+    while (true) {
+      auto it = next.find(v);
+      if (it == next.end() || it->second.size() != 1 || done.count(v)) break;
+      done.insert(v);
+      loop.push_back(v);
+      all_boundary = all_boundary && on_boundary(v);
+      v = it->second[0];
+      if (v == start) {
+        simple = true;
+        break;
+      }
+    }
+    if (!simple || loop.size() < 3) continue;
+    if (all_boundary) {
+      ++*kept;
+      continue;
+    }
+    const size_t n = loop.size();
+    auto is_edge = [&](uint32_t a, uint32_t b) { return directed.count({a, b}) || directed.count({b, a}); };
+    size_t apex = 0;
+    for (; apex < n; ++apex) {
+      bool clear = true;
+      for (size_t j = 2; j + 1 < n && clear; ++j) clear = !is_edge(loop[apex], loop[(apex + j) % n]);
+      if (clear) break;
+    }
+    if (apex == n) continue;
+    std::rotate(loop.begin(), loop.begin() + apex, loop.end());
+    // The loop runs along the triangles' edges; the patch runs against it.
+    for (size_t i = 1; i + 1 < n; ++i) {
+      tris->push_back({loop[0], loop[i + 1], loop[i]});
+      directed.insert({loop[0], loop[i + 1]});
+      directed.insert({loop[i + 1], loop[i]});
+      directed.insert({loop[i], loop[0]});
+    }
+    ++closed;
+  }
+  return closed;
+}
+
+// Pieces of fewer than four faces are what the manifold repair cuts off a
+// non-manifold edge (a fin, or two triangles back to back), never a part of
+// the surface: a closed part needs four faces, and every part of the input
+// gets at least four cells. Dropped, with the vertices no face uses any more.
+void drop_slivers(Mesh* mesh, std::vector<uint32_t>* source) {
+  const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
+  std::vector<uint32_t> parent(nv);
+  for (uint32_t v = 0; v < nv; ++v) parent[v] = v;
+  auto find = [&](uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (size_t f = 0; f < nf; ++f)
+    for (int c = 1; c < 3; ++c) parent[find(mesh->indices[3 * f + c])] = find(mesh->indices[3 * f]);
+  std::vector<uint32_t> faces(nv, 0);
+  for (size_t f = 0; f < nf; ++f) ++faces[find(mesh->indices[3 * f])];
+  std::vector<uint32_t> kept;
+  for (size_t f = 0; f < nf; ++f)
+    if (faces[find(mesh->indices[3 * f])] >= 4) kept.insert(kept.end(), &mesh->indices[3 * f], &mesh->indices[3 * f] + 3);
+  if (kept.size() == mesh->indices.size()) return;
+  std::vector<uint32_t> remap(nv, UINT32_MAX);
+  Mesh out;
+  std::vector<uint32_t> out_source;
+  for (uint32_t& v : kept) {
+    if (remap[v] == UINT32_MAX) {
+      remap[v] = uint32_t(out.vertex_count());
+      out.positions.insert(out.positions.end(), mesh->positions.begin() + 3 * v, mesh->positions.begin() + 3 * v + 3);
+      out_source.push_back((*source)[v]);
+    }
+    v = remap[v];
+  }
+  out.indices = std::move(kept);
+  *mesh = std::move(out);
+  *source = std::move(out_source);
+}
+
+// Edge flips towards the Delaunay triangulation of the vertices on the
+// surface: an interior edge whose two opposite angles sum to more than pi is
+// flipped, unless the flip would fold the surface, cross a crease (faces
+// more than 30 degrees apart), or make an edge that exists already (or that
+// an earlier flip of the same pass made). The vertices stay where the CVT
+// put them; only the connectivity improves.
+void delaunay_flips(Mesh* mesh) {
+  auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
+  auto angle_at = [&](uint32_t o, uint32_t a, uint32_t b) {
+    const Vector3d u = (p(a) - p(o)).normalized(), w = (p(b) - p(o)).normalized();
+    return std::acos(std::clamp(u.dot(w), -1.0, 1.0));
+  };
+  auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
+  const double crease = std::cos(30.0 * M_PI / 180.0);
+  for (int pass = 0; pass < 20; ++pass) {
+    std::unordered_map<uint64_t, std::array<int64_t, 2>> faces_of;
+    for (size_t f = 0; f < mesh->face_count(); ++f)
+      for (int c = 0; c < 3; ++c) {
+        auto [it, added] =
+            faces_of.emplace(key2(mesh->indices[3 * f + c], mesh->indices[3 * f + (c + 1) % 3]), std::array<int64_t, 2>{int64_t(f), -1});
+        if (!added) it->second[1] = it->second[1] == -1 ? int64_t(f) : -2;  // -2: more than two faces
+      }
+    std::vector<uint64_t> edges;
+    for (const auto& [e, f] : faces_of)
+      if (f[1] >= 0) edges.push_back(e);
+    std::sort(edges.begin(), edges.end());  // one order for one mesh
+    std::vector<char> touched(mesh->face_count(), 0);
+    size_t flips = 0;
+    for (uint64_t e : edges) {
+      const auto [f0, f1] = faces_of[e];
+      if (touched[f0] || touched[f1]) continue;
+      const uint32_t a = uint32_t(e >> 32), b = uint32_t(e);
+      // Rotate f0 to (x, y, c) with {x, y} = {a, b}; f1 then runs (y, x, d).
+      uint32_t* t0 = &mesh->indices[3 * f0];
+      uint32_t* t1 = &mesh->indices[3 * f1];
+      int k0 = 0;
+      while (!((t0[k0] == a || t0[k0] == b) && (t0[(k0 + 1) % 3] == a || t0[(k0 + 1) % 3] == b))) ++k0;
+      const uint32_t x = t0[k0], y = t0[(k0 + 1) % 3], c = t0[(k0 + 2) % 3];
+      uint32_t d = UINT32_MAX;
+      for (int k = 0; k < 3; ++k)
+        if (t1[k] != a && t1[k] != b) d = t1[k];
+      if (d == UINT32_MAX || c == d || faces_of.count(key2(c, d))) continue;
+      bool consistent = false;  // f1 must run y -> x
+      for (int k = 0; k < 3; ++k) consistent = consistent || (t1[k] == y && t1[(k + 1) % 3] == x);
+      if (!consistent) continue;
+      if (angle_at(c, x, y) + angle_at(d, y, x) <= M_PI + 1e-9) continue;
+      const Vector3d n0 = normal(x, y, c), n1 = normal(y, x, d);
+      if (n0.dot(n1) < crease) continue;
+      const Vector3d m0 = normal(c, x, d), m1 = normal(d, y, c);
+      if (m0.dot(n0 + n1) <= 0 || m1.dot(n0 + n1) <= 0 || m0.dot(m1) < crease) continue;
+      t0[0] = c, t0[1] = x, t0[2] = d;
+      t1[0] = d, t1[1] = y, t1[2] = c;
+      faces_of.emplace(key2(c, d), std::array<int64_t, 2>{int64_t(f0), int64_t(f1)});  // no second c-d this pass
+      touched[f0] = touched[f1] = 1;
+      ++flips;
+    }
+    if (flips == 0) break;
+  }
+}
+
+}  // namespace
+
+Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, uint32_t count, Mesh* out,
+                     std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats) {
+  const size_t nv = surface.vertex_count(), nf = surface.face_count();
+  if (label.size() != nv) return invalid_argument("cluster mesh: one label per vertex expected");
+  ClusterMeshStats st;
+  st.cells = count;
+
+  // Boundary edges of the refined surface (one face), and the cells on them.
+  std::unordered_map<uint64_t, int> edge_faces;
+  edge_faces.reserve(3 * nf);
+  for (size_t f = 0; f < nf; ++f)
+    for (int c = 0; c < 3; ++c) ++edge_faces[key2(surface.indices[3 * f + c], surface.indices[3 * f + (c + 1) % 3])];
+  std::vector<char> boundary_cell(count, 0);
+
+  // Quadrics, centroids (area-weighted) and the faces touching each cell.
+  std::vector<Quadric> quadric(count);
+  std::vector<Vector3d> centroid(count, Vector3d::Zero());
+  std::vector<double> weight(count, 0.0);
+  std::vector<std::vector<uint32_t>> cell_faces(count);
+  for (size_t f = 0; f < nf; ++f) {
+    const uint32_t* t = &surface.indices[3 * f];
+    const Vector3d a = eig(load3d(surface.positions.data(), t[0])), b = eig(load3d(surface.positions.data(), t[1])),
+                   c = eig(load3d(surface.positions.data(), t[2]));
+    const Vector3d cr = (b - a).cross(c - a);
+    const double area = 0.5 * cr.norm();
+    if (!(area > 0)) continue;
+    const Vector3d n = cr.normalized();
+    uint32_t seen[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX};
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t cell = label[t[k]];
+      if (cell == UINT32_MAX || cell == seen[0] || cell == seen[1]) continue;
+      seen[k] = cell;
+      quadric[cell].add_plane(n, a, area);
+      cell_faces[cell].push_back(uint32_t(f));
+    }
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t cell = label[t[k]];
+      if (cell == UINT32_MAX) continue;
+      const Vector3d p = k == 0 ? a : k == 1 ? b : c;
+      centroid[cell] += p * (area / 3);
+      weight[cell] += area / 3;
+      // An input boundary edge: a plane through it, across the surface, keeps
+      // the vertex on the boundary line (weighted like a face: length^2).
+      const uint32_t u = t[k], w = t[(k + 1) % 3];
+      if (edge_faces[key2(u, w)] == 1) {
+        const Vector3d pu = eig(load3d(surface.positions.data(), u)), pw = eig(load3d(surface.positions.data(), w));
+        const Vector3d e = pw - pu;
+        const Vector3d across = e.cross(n).normalized();
+        for (uint32_t end : {u, w}) {
+          const uint32_t ec = label[end];
+          if (ec == UINT32_MAX) continue;
+          boundary_cell[ec] = 1;
+          quadric[ec].add_plane(across, pu, e.squaredNorm());
+        }
+      }
+    }
+  }
+
+  // Dual triangles: one per cell triple (the first face's orientation).
+  std::vector<std::array<uint32_t, 3>> tris;
+  std::set<std::array<uint32_t, 3>> seen_triples;
+  for (size_t f = 0; f < nf; ++f) {
+    const uint32_t* t = &surface.indices[3 * f];
+    const uint32_t a = label[t[0]], b = label[t[1]], c = label[t[2]];
+    if (a == b || b == c || a == c || a == UINT32_MAX || b == UINT32_MAX || c == UINT32_MAX) continue;
+    std::array<uint32_t, 3> sorted = {a, b, c};
+    std::sort(sorted.begin(), sorted.end());
+    if (seen_triples.insert(sorted).second) tris.push_back({a, b, c});
+  }
+
+  st.holes_closed += close_dual_holes(&tris, [&](uint32_t cell) { return boundary_cell[cell] != 0; },
+                                      &st.boundary_loops);
+
+  // Vertex positions: quadric minimum about the centroid, then onto the cell's triangles.
+  std::vector<float> points(3 * size_t(count), 0.0f);
+  for (uint32_t cell = 0; cell < count; ++cell) {
+    if (!(weight[cell] > 0)) continue;
+    const Vector3d c = centroid[cell] / weight[cell];
+    Eigen::SelfAdjointEigenSolver<Matrix3d> solver(quadric[cell].a);
+    const Vector3d lambda = solver.eigenvalues();
+    const Matrix3d u = solver.eigenvectors();
+    const Vector3d r = quadric[cell].b - quadric[cell].a * c;
+    Vector3d x = c;
+    const double top = lambda.cwiseAbs().maxCoeff();
+    // Directions the faces pin down: the dominant normal always; a second and
+    // a third only where the cell covers a crease or corner (an eigenvalue
+    // over 5% of the largest: a cell bent by 20 degrees gives about 1%).
+    for (int k = 0; k < 3; ++k)
+      if (std::abs(lambda[k]) > 0.05 * top) x += u.col(k) * (u.col(k).dot(r) / lambda[k]);
+    Vector3d best = c;
+    double best_d = INFINITY;
+    for (uint32_t f : cell_faces[cell]) {
+      const uint32_t* t = &surface.indices[3 * f];
+      const Vector3d q =
+          closest_on_triangle(x, eig(load3d(surface.positions.data(), t[0])),
+                              eig(load3d(surface.positions.data(), t[1])), eig(load3d(surface.positions.data(), t[2])));
+      const double d = (q - x).squaredNorm();
+      if (d < best_d) {
+        best_d = d;
+        best = q;
+      }
+    }
+    for (int k = 0; k < 3; ++k) points[3 * cell + k] = float(best[k]);
+  }
+
+  if (tris.empty()) return invalid_argument("cluster mesh: the cells form no triangle");
+  std::vector<uint32_t> flat;
+  flat.reserve(3 * tris.size());
+  for (const auto& t : tris) flat.insert(flat.end(), t.begin(), t.end());
+  // Orientation, non-manifold splits and unused cells: the soup repair; its
+  // hole filling and bridge removal are off (holes were handled above).
+  MeshingOptions repair;
+  repair.max_hole_edges = 0;
+  repair.max_edge_ratio = 1e30;
+  std::vector<uint32_t> source;
+  VPR_RETURN_IF_ERROR(repair_triangle_soup(points.data(), count, flat.data(), tris.size(), repair, out, &source,
+                                           &st.repair));
+  // The repair splits non-manifold vertices, which can open a hole the first
+  // pass could not walk: once more on the repaired mesh.
+  {
+    std::vector<std::array<uint32_t, 3>> faces(out->face_count());
+    for (size_t f = 0; f < faces.size(); ++f)
+      faces[f] = {out->indices[3 * f], out->indices[3 * f + 1], out->indices[3 * f + 2]};
+    size_t loops = 0;
+    const size_t closed =
+        close_dual_holes(&faces, [&](uint32_t v) { return boundary_cell[source[v]] != 0; }, &loops);
+    if (closed > 0) {
+      st.holes_closed += closed;
+      out->indices.clear();
+      for (const auto& t : faces) out->indices.insert(out->indices.end(), t.begin(), t.end());
+    }
+    st.boundary_loops = loops;
+  }
+  drop_slivers(out, &source);
+  delaunay_flips(out);
+  st.cells_unused = count - out->vertex_count();
+  if (cell_of_vertex) *cell_of_vertex = std::move(source);
+  if (stats) *stats = st;
+  return Status::Ok();
+}
+
+}  // namespace vpr

@@ -1,0 +1,475 @@
+// Stage 7: mesh the optimized points. The paper uses Tight CoCone; we use CGAL's
+// Advancing Front Surface Reconstruction (Cohen-Steiner and Da, 2004), which
+// interpolates the points as Tight CoCone does, then repair its facets into an
+// oriented 2-manifold with Polygon_mesh_processing. No step adds a point: every
+// output vertex is one of the input points (duplicated where the surface
+// pinches), so the sample density AWLOP produced is the mesh's.
+#include "surface/meshing.h"
+
+#include "surface/ordered_heap.h"
+
+#include <CGAL/Advancing_front_surface_reconstruction.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/connected_components.h>
+#include <CGAL/Polygon_mesh_processing/manifoldness.h>
+#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/orientation.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
+#include <CGAL/Surface_mesh.h>
+#include <CGAL/boost/graph/Euler_operations.h>
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <limits>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <iterator>
+#include <map>
+#include <new>
+#include <string>
+#include <vector>
+
+namespace vpr {
+namespace {
+
+namespace PMP = CGAL::Polygon_mesh_processing;
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = Kernel::Point_3;
+using SurfaceMesh = CGAL::Surface_mesh<Point>;
+using VertexIndex = SurfaceMesh::Vertex_index;
+using FaceIndex = SurfaceMesh::Face_index;
+using HalfedgeIndex = SurfaceMesh::Halfedge_index;
+using Triangle = std::array<std::size_t, 3>;
+
+// Input order is kept: CGAL point i is input point i, so soup indices are input indices.
+Status to_cgal_points(const float* points, size_t n, std::vector<Point>* out) {
+  if (n > size_t(UINT32_MAX)) return invalid_argument("meshing takes at most 2^32 - 1 points");
+  out->resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const float* p = points + 3 * i;
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      return invalid_argument("meshing input point " + std::to_string(i) + " has a non-finite coordinate");
+    (*out)[i] = Point(p[0], p[1], p[2]);
+  }
+  return Status::Ok();
+}
+
+// True when some four points span a volume (exact predicates). AFSR needs a
+// 3D Delaunay triangulation; on a plane, a line or a point it has nothing to do.
+bool spans_volume(const std::vector<Point>& p) {
+  const size_t n = p.size();
+  size_t b = 1;
+  while (b < n && p[b] == p[0]) ++b;
+  size_t c = b + 1;
+  while (c < n && CGAL::collinear(p[0], p[b], p[c])) ++c;
+  for (size_t d = c + 1; d < n; ++d)
+    if (CGAL::orientation(p[0], p[b], p[c], p[d]) != CGAL::COPLANAR) return true;
+  return false;
+}
+
+// Containers indexed by a Surface_mesh index (h.idx(), v.idx(), f.idx()) are
+// sized by the index range, num_halfedges() and the like, which counts the
+// elements removed since the last collect_garbage(); number_of_halfedges()
+// does not, and a mesh that had faces removed has indices past it.
+// Boundary cycles of the mesh: one border halfedge and the edge count of each.
+std::vector<std::pair<HalfedgeIndex, size_t>> boundary_cycles(const SurfaceMesh& sm) {
+  std::vector<std::pair<HalfedgeIndex, size_t>> cycles;
+  std::vector<bool> seen(sm.num_halfedges(), false);
+  for (HalfedgeIndex h : sm.halfedges()) {
+    if (!sm.is_border(h) || seen[h.idx()]) continue;
+    size_t length = 0;
+    HalfedgeIndex g = h;
+    do {
+      seen[g.idx()] = true;
+      ++length;
+      g = sm.next(g);
+    } while (g != h);
+    cycles.emplace_back(h, length);
+  }
+  return cycles;
+}
+
+// Signed volume of a set of faces, measured from `origin`: positive when the
+// faces wind counter-clockwise seen from outside (for a closed surface the
+// origin does not matter; for one with small holes a central origin keeps the
+// missing cones small).
+double signed_volume(const SurfaceMesh& sm, const std::vector<FaceIndex>& faces, const Point& origin) {
+  double volume = 0;
+  for (FaceIndex f : faces) {
+    HalfedgeIndex h = sm.halfedge(f);
+    const Point& a = sm.point(sm.source(h));
+    const Point& b = sm.point(sm.target(h));
+    const Point& c = sm.point(sm.target(sm.next(h)));
+    volume += CGAL::scalar_product(a - origin, CGAL::cross_product(b - origin, c - origin)) / 6.0;
+  }
+  return volume;
+}
+
+// Open surfaces: per connected component, make the faces wind outward (positive
+// signed volume about the component's centroid). Heuristic, but right for a
+// closed shape with small unfilled holes, which is what AFSR leaves behind.
+void orient_open_components(SurfaceMesh& sm) {
+  auto component = sm.add_property_map<FaceIndex, size_t>("f:vpr_component", 0).first;
+  const size_t count = PMP::connected_components(sm, component);
+  std::vector<std::vector<FaceIndex>> faces(count);
+  std::vector<std::array<double, 4>> centroid(count, {0, 0, 0, 0});
+  for (FaceIndex f : sm.faces()) {
+    faces[component[f]].push_back(f);
+    for (VertexIndex v : sm.vertices_around_face(sm.halfedge(f))) {
+      const Point& p = sm.point(v);
+      auto& c = centroid[component[f]];
+      c[0] += p.x();
+      c[1] += p.y();
+      c[2] += p.z();
+      c[3] += 1;
+    }
+  }
+  for (size_t c = 0; c < count; ++c) {
+    const auto& s = centroid[c];
+    const Point origin(s[0] / s[3], s[1] / s[3], s[2] / s[3]);
+    if (signed_volume(sm, faces[c], origin) < 0) PMP::reverse_face_orientations(faces[c], sm);
+  }
+  sm.remove_property_map(component);
+}
+
+double median_edge_length(const SurfaceMesh& sm) {
+  std::vector<double> lengths;
+  lengths.reserve(sm.number_of_edges());
+  for (auto e : sm.edges())
+    lengths.push_back(std::sqrt(CGAL::squared_distance(sm.point(sm.vertex(e, 0)), sm.point(sm.vertex(e, 1)))));
+  if (lengths.empty()) return 0.0;
+  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
+  return lengths[lengths.size() / 2];
+}
+
+double longest_edge(const SurfaceMesh& sm, const std::vector<FaceIndex>& faces) {
+  double longest = 0.0;
+  for (FaceIndex f : faces)
+    for (auto h : sm.halfedges_around_face(sm.halfedge(f)))
+      longest = std::max(longest, std::sqrt(CGAL::squared_distance(sm.point(sm.source(h)), sm.point(sm.target(h)))));
+  return longest;
+}
+
+// Each triangle rotated to start at its smallest index (orientation kept),
+// then the triangles sorted: one order for one set of faces.
+void canonical_order(std::vector<Triangle>* triangles) {
+  for (Triangle& t : *triangles) std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+  std::sort(triangles->begin(), triangles->end());
+}
+
+// soup_points: the n input points in input order (as CGAL points); soup: triangles over them.
+Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points, std::vector<Triangle> soup,
+                   const MeshingOptions& options, Mesh* out, std::vector<uint32_t>* source_point, MeshingStats* stats) {
+  // Consistent orientation; points are duplicated (appended after the n inputs)
+  // wherever the facets meet along a non-manifold edge or vertex.
+  PMP::orient_polygon_soup(soup_points, soup);
+  size_t split = soup_points.size() - n;
+
+  SurfaceMesh sm;
+  PMP::polygon_soup_to_polygon_mesh(soup_points, soup, sm);  // vertex i = soup point i
+  // Which input point each vertex is. Vertices made by duplication (soup points
+  // past n, and those added below) get theirs by exact position lookup at the end.
+  auto source = sm.add_property_map<VertexIndex, uint32_t>("v:vpr_source", UINT32_MAX).first;
+  for (VertexIndex v : sm.vertices())
+    if (v.idx() < n) source[v] = uint32_t(v.idx());
+  split += PMP::duplicate_non_manifold_vertices(sm);  // triangulate_hole needs manifold borders
+
+  // Close small holes with the hole's own vertices (no refinement: the
+  // vertices are the AWLOP particles and stay exactly those).
+  // A face with an edge much longer than the median bridges separate parts:
+  // AFSR fans a lone particle on a thin tip to the body it faces. Such faces
+  // are removed here, so that the hole they leave is closed below from its
+  // own short edges. A hole patch with such an edge is likewise taken out again
+  // and the hole stays open.
+  const double max_edge = options.max_edge_ratio * median_edge_length(sm);
+  std::vector<FaceIndex> bridges;
+  for (FaceIndex f : sm.faces())
+    if (longest_edge(sm, {f}) > max_edge) bridges.push_back(f);
+  for (FaceIndex f : bridges) CGAL::Euler::remove_face(sm.halfedge(f), sm);
+  if (!bridges.empty()) split += PMP::duplicate_non_manifold_vertices(sm);
+  size_t filled = 0, left = 0;
+  for (const auto& [border, length] : boundary_cycles(sm)) {
+    if (!sm.is_border(border)) continue;  // each patch closes only its own cycle; be sure
+    if (length > options.max_hole_edges) {
+      ++left;
+      continue;
+    }
+    std::vector<FaceIndex> patch;
+    PMP::triangulate_hole(sm, border, std::back_inserter(patch));
+    if (patch.empty()) {
+      ++left;
+      continue;
+    }
+    if (longest_edge(sm, patch) > max_edge) {
+      for (FaceIndex f : patch) CGAL::Euler::remove_face(sm.halfedge(f), sm);
+      ++left;
+      continue;
+    }
+    ++filled;
+  }
+  split += PMP::duplicate_non_manifold_vertices(sm);
+
+  // Drop the points the reconstruction left out (repeated points, outliers):
+  // orient_to_bound_a_volume also requires a mesh without isolated vertices.
+  for (VertexIndex v : sm.vertices())
+    if (sm.is_isolated(v)) sm.remove_vertex(v);
+  sm.collect_garbage();  // compact indices; property maps follow
+
+  if (CGAL::is_closed(sm)) {
+    PMP::orient_to_bound_a_volume(sm);  // outward; inner shells of nested components inward
+  } else {
+    orient_open_components(sm);
+  }
+
+  std::map<std::array<float, 3>, uint32_t> input_index;  // built only if duplicates need it
+  for (VertexIndex v : sm.vertices()) {
+    if (source[v] != UINT32_MAX) continue;
+    if (input_index.empty())
+      for (size_t i = n; i-- > 0;)  // reverse: the lowest index wins for repeated points
+        input_index[{points[3 * i], points[3 * i + 1], points[3 * i + 2]}] = uint32_t(i);
+    const Point& p = sm.point(v);  // a copy of an input float triple: exact
+    source[v] = input_index.at({float(p.x()), float(p.y()), float(p.z())});
+  }
+
+  // Flatten: after collect_garbage vertex v has index v.idx() < num_vertices().
+  Mesh mesh;
+  std::vector<uint32_t> sources(sm.num_vertices());
+  std::vector<bool> used(n, false);
+  mesh.positions.reserve(3 * sm.number_of_vertices());
+  for (VertexIndex v : sm.vertices()) {
+    const uint32_t s = source[v];
+    sources[v.idx()] = s;
+    used[s] = true;
+    mesh.positions.insert(mesh.positions.end(), points + 3 * s, points + 3 * s + 3);
+  }
+  std::vector<Triangle> faces;
+  faces.reserve(sm.number_of_faces());
+  for (FaceIndex f : sm.faces()) {
+    Triangle t;
+    int c = 0;
+    for (VertexIndex v : sm.vertices_around_face(sm.halfedge(f))) t[c++] = v.idx();
+    faces.push_back(t);
+  }
+  canonical_order(&faces);
+  mesh.indices.reserve(3 * faces.size());
+  for (const Triangle& t : faces)
+    for (int c = 0; c < 3; ++c) mesh.indices.push_back(uint32_t(t[c]));
+
+  if (stats) {
+    *stats = MeshingStats{};
+    stats->points_in = n;
+    stats->vertices_out = sources.size();
+    stats->points_dropped = size_t(std::count(used.begin(), used.end(), false));
+    stats->holes_filled = filled;
+    stats->holes_left = left;
+    stats->vertices_split = split;
+    stats->bridges_removed = bridges.size();
+  }
+  *out = std::move(mesh);
+  if (source_point) *source_point = std::move(sources);
+  return Status::Ok();
+}
+
+// AFSR inside an OrderedHeapScope (see ordered_heap.h: its ties are broken
+// by heap addresses). Everything AFSR allocates dies inside the scope; the
+// facets leave through a malloc'ed buffer, errors through a stack buffer.
+Status reconstruct_in_allocation_order(const std::vector<Point>& points, const MeshingOptions& options,
+                                       std::vector<Triangle>* soup) {
+  // Measured: AFSR of 10k-20k points takes well under 1 KiB per point; 8 KiB
+  // per point leaves room (the reservation costs address space only).
+  const size_t bytes = (size_t(256) << 20) + points.size() * 8192;
+  Triangle* facets = nullptr;
+  size_t count = 0;
+  char error[512] = {0};
+  bool out_of_memory = false;
+  {
+    OrderedHeapScope ordered(bytes);
+    try {
+      std::vector<Triangle> inside;
+      CGAL::advancing_front_surface_reconstruction(points.begin(), points.end(), std::back_inserter(inside),
+                                                   options.radius_ratio_bound, options.beta);
+      count = inside.size();
+      facets = static_cast<Triangle*>(std::malloc(std::max<size_t>(1, count) * sizeof(Triangle)));
+      if (facets) std::copy(inside.begin(), inside.end(), facets);
+      else out_of_memory = true;
+    } catch (const std::bad_alloc&) {
+      out_of_memory = true;
+    } catch (const std::exception& e) {
+      std::snprintf(error, sizeof error, "%s", e.what());
+      if (!error[0]) std::snprintf(error, sizeof error, "unknown error");
+    }
+  }
+  if (out_of_memory) return resource_exhausted("meshing ran out of memory on " + std::to_string(points.size()) + " points");
+  if (error[0]) return internal_error(std::string("meshing failed inside CGAL: ") + error);
+  soup->assign(facets, facets + count);
+  std::free(facets);
+  return Status::Ok();
+}
+
+// The parallel path of MeshingOptions (slabs with halos, facets kept by
+// centroid, accepted only when every seam closes). Returns false, with the
+// number of seam defects, when the slabs do not agree and the caller must
+// reconstruct the points whole.
+StatusOr<bool> reconstruct_in_slabs(const std::vector<Point>& points, const MeshingOptions& options,
+                                    std::vector<Triangle>* soup, size_t* slab_count, size_t* seam_defects) {
+  const size_t n = points.size();
+  const size_t slabs = std::min(options.max_slabs, options.points_per_slab ? n / options.points_per_slab : 0);
+  *slab_count = 1;
+  if (slabs < 2 || !(options.spacing > 0) || !std::isfinite(options.spacing)) return false;
+
+  // Cut along the longest axis of the bounding box, at quantiles of the points.
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = points[0][a];
+  for (const Point& p : points)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  int axis = 0;
+  for (int a = 1; a < 3; ++a)
+    if (hi[a] - lo[a] > hi[axis] - lo[axis]) axis = a;
+  std::vector<double> sorted(n);
+  for (size_t i = 0; i < n; ++i) sorted[i] = points[i][axis];
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<double> cut(slabs + 1);
+  cut[0] = -std::numeric_limits<double>::infinity();
+  cut[slabs] = std::numeric_limits<double>::infinity();
+  for (size_t s = 1; s < slabs; ++s) cut[s] = sorted[s * n / slabs];
+  const double halo = options.halo_spacings * options.spacing;
+
+  std::vector<std::vector<Triangle>> kept(slabs);
+  std::vector<Status> status(slabs);
+  tbb::parallel_for(size_t(0), slabs, [&](size_t s) {
+    std::vector<Point> local;
+    std::vector<size_t> global;
+    for (size_t i = 0; i < n; ++i) {
+      const double x = points[i][axis];
+      if (x >= cut[s] - halo && x < cut[s + 1] + halo) {
+        local.push_back(points[i]);
+        global.push_back(i);
+      }
+    }
+    std::vector<Triangle> facets;
+    if (local.size() >= 4) status[s] = reconstruct_in_allocation_order(local, options, &facets);
+    for (Triangle t : facets) {
+      for (size_t& v : t) v = global[v];
+      const double centroid = (points[t[0]][axis] + points[t[1]][axis] + points[t[2]][axis]) / 3.0;
+      if (centroid >= cut[s] && centroid < cut[s + 1]) kept[s].push_back(t);
+    }
+  });
+  for (const Status& st : status) VPR_RETURN_IF_ERROR(st);
+
+  soup->clear();
+  for (const auto& k : kept) soup->insert(soup->end(), k.begin(), k.end());
+  // Seams: every edge with both ends near a cut must be shared by exactly two
+  // facets, as it is in the interior of a closed reconstruction.
+  auto near_cut = [&](size_t v) {
+    const double x = points[v][axis];
+    for (size_t s = 1; s < slabs; ++s)
+      if (std::abs(x - cut[s]) < halo) return true;
+    return false;
+  };
+  std::vector<std::pair<size_t, size_t>> edges;
+  for (const Triangle& t : *soup)
+    for (int c = 0; c < 3; ++c) {
+      const size_t a = t[c], b = t[(c + 1) % 3];
+      if (near_cut(a) && near_cut(b)) edges.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  std::sort(edges.begin(), edges.end());
+  size_t defects = 0;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    defects += (j - i) != 2;
+    i = j;
+  }
+  *seam_defects = defects;
+  if (defects > 0) return false;
+  *slab_count = slabs;
+  return true;
+}
+
+Status mesh_points_impl(const float* points, size_t n, const MeshingOptions& options, Mesh* out,
+                        std::vector<uint32_t>* source_point, MeshingStats* stats) {
+  if (n < 4) return invalid_argument("meshing needs at least 4 points, got " + std::to_string(n));
+  if (!(options.radius_ratio_bound > 0) || !std::isfinite(options.radius_ratio_bound))
+    return invalid_argument("meshing radius_ratio_bound must be positive, got " +
+                            std::to_string(options.radius_ratio_bound));
+  if (!(options.beta > 0) || !std::isfinite(options.beta))
+    return invalid_argument("meshing beta must be positive, got " + std::to_string(options.beta));
+
+  std::vector<Point> soup_points;
+  VPR_RETURN_IF_ERROR(to_cgal_points(points, n, &soup_points));
+  if (!spans_volume(soup_points))
+    return invalid_argument("meshing needs points that span a volume; all " + std::to_string(n) +
+                            " points are coplanar");
+
+  std::vector<Triangle> soup;
+  size_t slabs = 1, seam_defects = 0;
+  VPR_ASSIGN_OR_RETURN(const bool in_slabs,
+                       reconstruct_in_slabs(soup_points, options, &soup, &slabs, &seam_defects));
+  if (!in_slabs) VPR_RETURN_IF_ERROR(reconstruct_in_allocation_order(soup_points, options, &soup));
+  if (soup.empty())
+    return invalid_argument("meshing: the reconstruction found no surface through the " + std::to_string(n) +
+                            " points");
+  // AFSR emits the same facets in an order that depends on memory addresses;
+  // sort them so the repair below, and the result, are reproducible.
+  canonical_order(&soup);
+
+  VPR_RETURN_IF_ERROR(
+      repair_soup(points, n, std::move(soup_points), std::move(soup), options, out, source_point, stats));
+  if (stats) {
+    stats->slabs = slabs;
+    stats->seam_defects = seam_defects;
+  }
+  return Status::Ok();
+}
+
+// CGAL may throw (failed assertions in debug builds, failed constructions);
+// bad input must not end the process.
+template <class Fn>
+Status guarded(size_t n, Fn fn) {
+  try {
+    return fn();
+  } catch (const std::bad_alloc&) {
+    return resource_exhausted("meshing ran out of memory on " + std::to_string(n) + " points");
+  } catch (const std::exception& e) {
+    return internal_error(std::string("meshing failed inside CGAL: ") + e.what());
+  }
+}
+
+}  // namespace
+
+Status mesh_points(const float* points, size_t n, const MeshingOptions& options, Mesh* out,
+                   std::vector<uint32_t>* source_point, MeshingStats* stats) {
+  return guarded(n, [&] { return mesh_points_impl(points, n, options, out, source_point, stats); });
+}
+
+Status repair_triangle_soup(const float* points, size_t n, const uint32_t* triangles, size_t triangle_count,
+                            const MeshingOptions& options, Mesh* out, std::vector<uint32_t>* source_point,
+                            MeshingStats* stats) {
+  if (triangle_count == 0) return invalid_argument("soup repair needs at least one triangle, got 0");
+  std::vector<Triangle> soup(triangle_count);
+  for (size_t t = 0; t < triangle_count; ++t) {
+    const uint32_t* v = triangles + 3 * t;
+    for (int c = 0; c < 3; ++c)
+      if (v[c] >= n)
+        return invalid_argument("soup triangle " + std::to_string(t) + " references point " + std::to_string(v[c]) +
+                                " but there are " + std::to_string(n) + " points");
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0])
+      return invalid_argument("soup triangle " + std::to_string(t) + " repeats a vertex");
+    soup[t] = {v[0], v[1], v[2]};
+  }
+  return guarded(n, [&]() -> Status {
+    std::vector<Point> soup_points;
+    VPR_RETURN_IF_ERROR(to_cgal_points(points, n, &soup_points));
+    return repair_soup(points, n, std::move(soup_points), std::move(soup), options, out, source_point, stats);
+  });
+}
+
+}  // namespace vpr

@@ -1,0 +1,137 @@
+#include "surface/surface_density.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/vec3.h"
+
+namespace vpr {
+namespace {
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+StatusOr<DensityMode> parse_density_mode(const std::string& name) {
+  if (name == "perception") return DensityMode::kPerception;
+  if (name == "curvature") return DensityMode::kCurvature;
+  if (name == "uniform") return DensityMode::kUniform;
+  if (name == "paper") return DensityMode::kPaper;
+  return invalid_argument("density '" + name + "' is not one of perception, curvature, uniform, paper");
+}
+
+const char* density_mode_name(DensityMode mode) {
+  switch (mode) {
+    case DensityMode::kPerception:
+      return "perception";
+    case DensityMode::kCurvature:
+      return "curvature";
+    case DensityMode::kUniform:
+      return "uniform";
+    case DensityMode::kPaper:
+      return "paper";
+  }
+  return "perception";
+}
+
+std::vector<double> mean_curvature(const Mesh& mesh) {
+  const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
+  std::vector<Vec3d> normal(nf);
+  std::vector<double> area(nv, 0.0), integral(nv, 0.0);
+  struct Half {
+    uint64_t key;
+    uint32_t face;
+  };
+  std::vector<Half> halves;
+  halves.reserve(3 * nf);
+  for (size_t f = 0; f < nf; ++f) {
+    const uint32_t* t = &mesh.indices[3 * f];
+    const Vec3d a = load3d(mesh.positions.data(), t[0]), b = load3d(mesh.positions.data(), t[1]),
+                c = load3d(mesh.positions.data(), t[2]);
+    const Vec3d n = cross(b - a, c - a);
+    const double len = norm(n);
+    normal[f] = len > 0 ? n * (1.0 / len) : Vec3d{0, 0, 0};
+    for (int k = 0; k < 3; ++k) area[t[k]] += len / 6.0;
+    for (int k = 0; k < 3; ++k) {
+      const uint64_t u = t[k], w = t[(k + 1) % 3];
+      halves.push_back({u < w ? (u << 32 | w) : (w << 32 | u), uint32_t(f)});
+    }
+  }
+  std::sort(halves.begin(), halves.end(), [](const Half& x, const Half& y) {
+    return x.key != y.key ? x.key < y.key : x.face < y.face;
+  });
+  for (size_t i = 0; i < halves.size();) {
+    size_t j = i;
+    while (j < halves.size() && halves[j].key == halves[i].key) ++j;
+    // The largest angle between the normals of the edge's faces (two on a manifold edge).
+    double angle = 0;
+    for (size_t p = i; p < j; ++p)
+      for (size_t q = p + 1; q < j; ++q)
+        angle = std::max(angle, std::acos(std::clamp(dot(normal[halves[p].face], normal[halves[q].face]), -1.0, 1.0)));
+    const uint32_t u = uint32_t(halves[i].key >> 32), w = uint32_t(halves[i].key);
+    const double length = norm(load3d(mesh.positions.data(), u) - load3d(mesh.positions.data(), w));
+    integral[u] += 0.25 * angle * length;
+    integral[w] += 0.25 * angle * length;
+    i = j;
+  }
+  std::vector<double> h(nv, 0.0);
+  for (size_t v = 0; v < nv; ++v) h[v] = area[v] > 0 ? integral[v] / area[v] : 0.0;
+  return h;
+}
+
+std::vector<float> vertex_density(const Mesh& mesh, const std::vector<float>& importance, DensityMode mode) {
+  const size_t nv = mesh.vertex_count();
+  std::vector<float> d(nv, 1.0f);
+  if (mode == DensityMode::kUniform || mode == DensityMode::kPaper) return d;
+  const std::vector<double> h = mean_curvature(mesh);
+  double ref = median_of(h);
+  if (!(ref > 0)) {  // mostly flat (CAD): the typical curved vertex sets the scale
+    std::vector<double> curved;
+    for (double x : h)
+      if (x > 0) curved.push_back(x);
+    ref = median_of(curved);
+  }
+  if (ref > 0)
+    for (size_t v = 0; v < nv; ++v) d[v] = float(std::clamp(std::sqrt(h[v] / ref), 0.3, 3.0));
+  if (mode == DensityMode::kPerception && importance.size() == nv) {
+    std::vector<double> imp(importance.begin(), importance.end());
+    const double mid = median_of(imp);
+    if (mid > 0)
+      for (size_t v = 0; v < nv; ++v) d[v] *= float(std::clamp(std::sqrt(double(importance[v]) / mid), 0.5, 2.0));
+  }
+  return d;
+}
+
+void smooth_over_edges(const Mesh& mesh, int iterations, int channels, int channel, std::vector<float>* values) {
+  const size_t nv = mesh.vertex_count();
+  std::vector<uint64_t> edges;
+  edges.reserve(mesh.indices.size());
+  for (size_t f = 0; f < mesh.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint64_t a = mesh.indices[3 * f + c], b = mesh.indices[3 * f + (c + 1) % 3];
+      edges.push_back(a < b ? (a << 32 | b) : (b << 32 | a));
+    }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  const size_t k = size_t(channels);
+  std::vector<double> sum(nv), count(nv);
+  for (int it = 0; it < iterations; ++it) {
+    std::fill(sum.begin(), sum.end(), 0.0);
+    std::fill(count.begin(), count.end(), 0.0);
+    for (uint64_t e : edges) {
+      const uint32_t a = uint32_t(e >> 32), b = uint32_t(e);
+      sum[a] += (*values)[k * b + channel];
+      sum[b] += (*values)[k * a + channel];
+      count[a] += 1;
+      count[b] += 1;
+    }
+    for (size_t v = 0; v < nv; ++v)
+      if (count[v] > 0) (*values)[k * v + channel] = float(0.5 * (*values)[k * v + channel] + 0.5 * sum[v] / count[v]);
+  }
+}
+
+}  // namespace vpr

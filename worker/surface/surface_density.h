@@ -1,0 +1,46 @@
+// How many output vertices each part of the surface should get: a vertex
+// density D per input vertex, relative (its median is about 1). The CVT
+// (surface_cvt.h) spends vertices in proportion to D per unit area, by
+// weighting its energy with rho = D^2 (a centroidal Voronoi tessellation of a
+// surface puts points at a density proportional to rho^(1/2): Du, Faber and
+// Gunzburger 1999, Gersho's conjecture in two dimensions).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/mesh.h"
+#include "core/status.h"
+
+namespace vpr {
+
+enum class DensityMode {
+  kPerception,  // curvature term x saliency term (the default)
+  kCurvature,   // curvature term alone
+  kUniform,     // D = 1
+  kPaper,       // the paper's back half: saliency-driven sampling, AWLOP, advancing front
+};
+
+StatusOr<DensityMode> parse_density_mode(const std::string& name);  // "perception", "curvature", ...
+const char* density_mode_name(DensityMode mode);
+
+// Integrated mean curvature per vertex, |H| A_i = 1/4 sum over its edges of
+// |dihedral angle| x length (Cohen-Steiner and Morvan 2003), divided by the
+// vertex's area (a third of its faces'). Edges with one face count 0. No
+// cotangents, so CAD slivers give no spikes; creases give large values.
+std::vector<double> mean_curvature(const Mesh& mesh);
+
+// D per vertex. Curvature term: sqrt(|H| / median |H|) clamped to [0.3, 3]
+// (spacing follows the radius of curvature, bounded). Saliency term:
+// sqrt(I / median I) clamped to [0.5, 2] (importance moves vertices towards
+// where people look on top of what keeps the shape, never instead of it).
+std::vector<float> vertex_density(const Mesh& mesh, const std::vector<float>& importance, DensityMode mode);
+
+// Jacobi smoothing of one channel of a per-vertex value over the mesh's
+// edges (each pass: half the value, half its neighbours' mean). The density
+// is smoothed on the refined surface so that it changes over a few output
+// spacings, not from one element to the next: a CVT cannot place well-shaped
+// triangles across a tenfold jump in density.
+void smooth_over_edges(const Mesh& mesh, int iterations, int channels, int channel, std::vector<float>* values);
+
+}  // namespace vpr

@@ -1,0 +1,29 @@
+// The input surface made fine enough to carry a discrete centroidal Voronoi
+// tessellation (surface_cvt.h): every edge at most `max_edge` long, by
+// splitting edges at their midpoints (the shape is unchanged: new vertices lie
+// on the input's triangles). Exact duplicate positions are welded first, so a
+// mesh exported as separate triangles regains its connectivity.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/mesh.h"
+#include "core/status.h"
+
+namespace vpr {
+
+struct RefinedSurface {
+  Mesh mesh;                   // welded, degenerate faces dropped, refined
+  int channels = 1;
+  std::vector<float> value;    // channels per refined vertex: the input's values, linearly interpolated
+  std::vector<uint32_t> face;  // per refined face: the input face it lies in
+};
+
+// value: `channels` numbers per input vertex (e.g. importance, density),
+// carried to the new vertices. max_vertices bounds the result
+// (RESOURCE_EXHAUSTED past it).
+StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<float>& value, int channels,
+                                        double max_edge, size_t max_vertices);
+
+}  // namespace vpr
