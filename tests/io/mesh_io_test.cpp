@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "draco/compression/encode.h"
+#include "draco/mesh/mesh.h"
 #include "draco/point_cloud/point_cloud.h"
 #include "io/png_io.h"
 
@@ -873,6 +874,48 @@ std::string draco_point_cloud() {
   draco::EncoderBuffer buffer;
   EXPECT_TRUE(encoder.EncodePointCloudToBuffer(pc, &buffer).ok());
   return std::string(buffer.data(), buffer.size());
+}
+
+// A triangle whose positions Draco stores with the given type (sequential,
+// unquantized, so the values arrive as they are).
+template <class T>
+std::string draco_triangle(draco::DataType type, const T (&p)[3][3]) {
+  draco::Mesh mesh;
+  mesh.set_num_points(3);
+  draco::GeometryAttribute ga;
+  ga.Init(draco::GeometryAttribute::POSITION, nullptr, 3, type, false, 3 * sizeof(T), 0);
+  const int id = mesh.AddAttribute(ga, true, 3);
+  for (int i = 0; i < 3; ++i) mesh.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(i), p[i]);
+  mesh.SetNumFaces(1);
+  mesh.SetFace(draco::FaceIndex(0), {draco::PointIndex(0), draco::PointIndex(1), draco::PointIndex(2)});
+  draco::Encoder encoder;
+  encoder.SetSpeedOptions(10, 10);
+  draco::EncoderBuffer buffer;
+  EXPECT_TRUE(encoder.EncodeMeshToBuffer(mesh, &buffer).ok());
+  return std::string(buffer.data(), buffer.size());
+}
+
+// Found by draco_fuzzer: Draco converts a stored value to float with a plain
+// cast, so booleans (any byte loaded as a bool) and doubles beyond the float
+// range were undefined behaviour. Both are refused; integer types still read.
+TEST(Draco, BooleanOrOutOfRangePositionsAreInvalidArgument) {
+  const std::string fuzzed(
+      "\x44\x52\x41\x43\x4f\x02\x02\x01\x01\x00\x00\x00\x04\x04\x00\x03\x00\x00\x01\x2f\x01\x01\x10\x01\xff"
+      "\x00\x00\x01\x00\x0b\x03\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x23"
+      "\x3f\x00\x00\x00\x00\x00\x00\x00\x00",
+      59);
+  expect_error(parse(fuzzed, MeshFormat::kDraco), StatusCode::kInvalidArgument,
+               "Draco: the position attribute has data type 11, a numeric type is needed");
+  const bool bits[3][3] = {{false, false, false}, {true, false, false}, {false, true, false}};
+  expect_error(parse(draco_triangle(draco::DT_BOOL, bits), MeshFormat::kDraco), StatusCode::kInvalidArgument,
+               "a numeric type is needed");
+  const double huge[3][3] = {{0, 0, 0}, {1e300, 0, 0}, {0, 1, 0}};
+  expect_error(parse(draco_triangle(draco::DT_FLOAT64, huge), MeshFormat::kDraco), StatusCode::kInvalidArgument,
+               "non-finite coordinate");
+  const int16_t steps[3][3] = {{0, 0, 0}, {-7, 0, 0}, {0, 300, 0}};
+  auto mesh = parse(draco_triangle(draco::DT_INT16, steps), MeshFormat::kDraco);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  EXPECT_EQ(mesh->positions, (std::vector<float>{0, 0, 0, -7, 0, 0, 0, 300, 0}));
 }
 
 TEST(Draco, PointCloudAndCorruptBytesAreInvalidArgument) {

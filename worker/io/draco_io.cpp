@@ -168,14 +168,29 @@ Status prescan_draco(const uint8_t* data, size_t size, const MeshLimits& limits)
   return Status::Ok();
 }
 
+// An attribute's stored type, when we can read numbers from it. Booleans are
+// not: Draco would load any byte of the stream as a bool.
+Status check_numeric(const draco::PointAttribute& att, const char* what) {
+  const draco::DataType t = att.data_type();
+  if (t == draco::DT_BOOL || t <= draco::DT_INVALID || t >= draco::DT_TYPES_COUNT)
+    return invalid_argument(std::string("Draco: the ") + what + " attribute has data type " + std::to_string(int(t)) +
+                            ", a numeric type is needed (corrupt data)");
+  return Status::Ok();
+}
+
 // Reads one attribute value per point; false when the mapping or the data is
-// inconsistent.
+// inconsistent. Through double and to_float: a float64 value beyond the
+// float range becomes +-inf (refused by validate_mesh) rather than an
+// undefined conversion inside Draco.
 bool gather(const draco::PointAttribute& att, uint32_t num_points, int components, float* out) {
   if (!att.is_mapping_identity() && att.indices_map_size() < num_points) return false;
+  double value[4];
+  if (components < 1 || components > 4) return false;
   for (uint32_t p = 0; p < num_points; ++p) {
     const draco::AttributeValueIndex index = att.mapped_index(draco::PointIndex(p));
     if (index.value() >= att.size()) return false;
-    if (!att.ConvertValue<float>(index, int8_t(components), out + size_t(p) * components)) return false;
+    if (!att.ConvertValue<double>(index, int8_t(components), value)) return false;
+    for (int c = 0; c < components; ++c) out[size_t(p) * components + c] = to_float(value[c]);
   }
   return true;
 }
@@ -204,6 +219,8 @@ StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& l
     return invalid_argument("Draco: positions have " + std::to_string(int(position->num_components())) +
                             " components, 3 are needed");
 
+  VPR_RETURN_IF_ERROR(check_numeric(*position, "position"));
+
   Mesh mesh;
   mesh.positions.resize(size_t(num_points) * 3);
   if (!gather(*position, num_points, 3, mesh.positions.data()))
@@ -222,6 +239,7 @@ StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& l
       if (att->num_components() != 1)
         return invalid_argument("Draco: the saliency attribute has " + std::to_string(int(att->num_components())) +
                                 " components, 1 is expected");
+      VPR_RETURN_IF_ERROR(check_numeric(*att, "saliency"));
       saliency->resize(num_points);
       if (!gather(*att, num_points, 1, saliency->data()))
         return invalid_argument("Draco: the saliency attribute does not cover every point (corrupt data)");
