@@ -92,7 +92,7 @@ TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
   const std::string obj_oob = write("oob.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
   const std::string cloud = write("cloud.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
   const std::string empty = write("empty.off", "");
-  const std::string corrupt = write("corrupt.drc", std::string("DRACO\x02\x02\x01\x01\x00\x00garbage", 21));
+  const std::string corrupt = write("corrupt.drc", std::string("DRACO\x02\x02\x01\x01\x00\x00garbage", 18));
   const std::string good = "../shared/models/spot.obj";
   const Case cases[] = {
       {"local " + path("missing.obj") + " -o " + path("o.ply") + " -n 500", 7, "missing.obj"},

@@ -268,7 +268,7 @@ TEST_F(ServiceTest, UploadOverTheLimitIsResourceExhausted) {
 // Bytes that start like Draco but are not: INVALID_ARGUMENT (exit 3).
 TEST_F(ServiceTest, CorruptDracoIsInvalidArgument) {
   START_SERVER(server);
-  const std::string corrupt = std::string("DRACO\x02\x02\x01\x01\x00\x00garbage", 21);
+  const std::string corrupt = std::string("DRACO\x02\x02\x01\x01\x00\x00garbage", 18);
   write_file(path("corrupt.drc"), std::vector<uint8_t>(corrupt.begin(), corrupt.end()));
   CliRun r =
       run_cli("submit " + path("corrupt.drc") + " -o " + path("o.ply") + " -n 500 --server " + server->address());
