@@ -15,6 +15,12 @@ endfunction()
 # at ../shared/models relative to it).
 function(vpr_test name)
   cmake_parse_arguments(ARG "" "" "SOURCES;LIBS;LABELS" ${ARGN})
+  # `make sanitize` builds and runs the tests defined while VPR_SANITIZE_THESE
+  # is on (tests/CMakeLists.txt).
+  if(VPR_SANITIZE AND VPR_SANITIZE_THESE)
+    list(APPEND ARG_LABELS sanitize)
+    set_property(GLOBAL APPEND PROPERTY VPR_SANITIZE_TARGETS ${name})
+  endif()
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main)
   target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/worker ${PROJECT_SOURCE_DIR}/tests)
