@@ -92,12 +92,13 @@ void add_server_options(CLI::App& app, ServerOptions* o) {
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
 
-  // Limits: MiB on the command line, bytes inside.
+  // Limits: MiB on the command line, bytes inside. CLI11 writes the parsed value through the
+  // reference it holds, at parse time: the lambda owns `upload_mib` so it lives as long as `app`.
   auto upload_mib = std::make_shared<uint64_t>(o->limits.max_upload_bytes >> 20);
   app.add_option("--max-upload-mib", *upload_mib, "Largest Draco upload in MiB")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 20))
       ->capture_default_str()
-      ->each([o](const std::string& mib) { o->limits.max_upload_bytes = std::stoull(mib) << 20; });
+      ->each([o, upload_mib](const std::string& mib) { o->limits.max_upload_bytes = std::stoull(mib) << 20; });
   app.add_option("--max-vertices", o->limits.max_vertices, "Most input vertices per job")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
