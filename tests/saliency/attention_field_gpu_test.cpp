@@ -1,0 +1,84 @@
+// The attention field's GPU twin against its CPU twin (attention_field.h):
+// the weighted means run the same float products in the same order on both
+// (no FMA contraction, no transcendental), so the fields must be identical.
+// Skipped where no CUDA device can be used.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "../test_meshes.h"
+#include "gpu/cuda_device.h"
+#include "io/mesh_io.h"
+#include "saliency/attention_field.h"
+#include "surface/surface_density.h"
+
+namespace vpr {
+namespace {
+
+const ExecContext kCpu{};
+
+class AttentionFieldGpu : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string why;
+    if (cuda_devices(&why).empty()) GTEST_SKIP() << why;
+    ASSERT_TRUE(init_cuda_device(0).ok());
+    auto stream = CudaStream::create(0);
+    ASSERT_TRUE(stream.ok()) << stream.status().to_string();
+    stream_ = std::move(stream).value();
+    gpu_ = ExecContext{Device::kCuda, stream_.get(), nullptr};
+  }
+  CudaStream stream_;
+  ExecContext gpu_;
+};
+
+void expect_twins_agree(const Mesh& m, const AttentionFieldOptions& o, const ExecContext& gpu, const std::string& what) {
+  const std::vector<double> hd = mean_curvature(m);
+  const std::vector<float> h(hd.begin(), hd.end());
+  std::vector<float> cpu_field, gpu_field;
+  ASSERT_TRUE(cpu::attention_field(m.positions.data(), h.data(), m.vertex_count(), o, &cpu_field, kCpu).ok());
+  const Status s = cuda::attention_field(m.positions.data(), h.data(), m.vertex_count(), o, &gpu_field, gpu);
+  ASSERT_TRUE(s.ok()) << s.to_string();
+  ASSERT_EQ(gpu_field.size(), cpu_field.size());
+  size_t differ = 0;
+  double worst = 0;
+  for (size_t v = 0; v < cpu_field.size(); ++v) {
+    differ += gpu_field[v] != cpu_field[v];
+    worst = std::max(worst, std::abs(double(gpu_field[v]) - double(cpu_field[v])));
+  }
+  EXPECT_EQ(differ, 0u) << what << ": largest difference " << worst;
+}
+
+TEST_F(AttentionFieldGpu, EqualsCpuOnSpheresAndBunny) {
+  expect_twins_agree(testing::icosphere(5), {}, gpu_, "icosphere");
+  AttentionFieldOptions wide;
+  wide.coarse_sigma = 0.05f;
+  wide.view_bias = 0;
+  expect_twins_agree(testing::icosphere(4), wide, gpu_, "icosphere, wide sigma, no bias");
+  auto bunny = read_mesh("../shared/models/bunny.obj");
+  if (!bunny.ok()) GTEST_SKIP() << "../shared/models/bunny.obj not found";
+  expect_twins_agree(*bunny, {}, gpu_, "bunny");
+}
+
+TEST_F(AttentionFieldGpu, RefusesLikeCpuAndRunsOutOfBudgetCleanly) {
+  const Mesh m = testing::icosphere(2);
+  const std::vector<double> hd = mean_curvature(m);
+  const std::vector<float> h(hd.begin(), hd.end());
+  std::vector<float> field;
+  AttentionFieldOptions bad;
+  bad.curvature_cap = 0.5f;
+  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), m.vertex_count(), bad, &field, gpu_).code(),
+            StatusCode::kInvalidArgument);
+  DeviceBudget tiny;
+  tiny.limit = 64;
+  const ExecContext small{Device::kCuda, gpu_.stream, &tiny};
+  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), m.vertex_count(), {}, &field, small).code(),
+            StatusCode::kResourceExhausted);
+  EXPECT_EQ(tiny.used.load(), 0u);
+}
+
+}  // namespace
+}  // namespace vpr

@@ -1,0 +1,201 @@
+// The attention field (attention_field.h) on shapes whose answer we know: a
+// small bump on a sphere stands out, the field spans [min_importance, 1] with
+// few vertices at the top, the Gaussian means equal brute force, the front-top
+// bias orders an otherwise uniform sphere, and bad options are refused.
+#include "saliency/attention_field.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "../test_meshes.h"
+#include "surface/surface_density.h"
+
+namespace vpr {
+namespace {
+
+const ExecContext kCpu{};
+
+std::vector<float> curvature_of(const Mesh& mesh) {
+  const std::vector<double> h = mean_curvature(mesh);
+  return std::vector<float>(h.begin(), h.end());
+}
+
+StatusOr<std::vector<float>> field_of(const Mesh& mesh, const AttentionFieldOptions& options = {}) {
+  const std::vector<float> h = curvature_of(mesh);
+  std::vector<float> field;
+  VPR_RETURN_IF_ERROR(cpu::attention_field(mesh.positions.data(), h.data(), mesh.vertex_count(), options, &field, kCpu));
+  return field;
+}
+
+// A unit icosphere (10,242 vertices) with a Gaussian bump of height `height`
+// and angular radius `width` (radians) around the unit direction `axis`.
+Mesh bumped_sphere(Vec3 axis, float height, float width) {
+  Mesh m = testing::icosphere(5);
+  for (size_t v = 0; v < m.vertex_count(); ++v) {
+    float* p = &m.positions[3 * v];
+    const float c = std::clamp(p[0] * axis.x + p[1] * axis.y + p[2] * axis.z, -1.0f, 1.0f);
+    const float angle = std::acos(c);
+    const float r = 1.0f + height * std::exp(-angle * angle / (2 * width * width));
+    for (int k = 0; k < 3; ++k) p[k] *= r;
+  }
+  return m;
+}
+
+// Vertices within `angle` of the axis.
+std::vector<size_t> cap_of(const Mesh& m, Vec3 axis, float angle) {
+  std::vector<size_t> out;
+  for (size_t v = 0; v < m.vertex_count(); ++v) {
+    const float* p = &m.positions[3 * v];
+    const float len = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    if ((p[0] * axis.x + p[1] * axis.y + p[2] * axis.z) / len >= std::cos(angle)) out.push_back(v);
+  }
+  return out;
+}
+
+float quantile(std::vector<float> v, double q) {
+  std::sort(v.begin(), v.end());
+  return v[size_t(q * double(v.size() - 1))];
+}
+
+double share_at_max(const std::vector<float>& f) {
+  const float top = *std::max_element(f.begin(), f.end());
+  return double(std::count_if(f.begin(), f.end(), [&](float x) { return x >= top - 1e-6f; })) / double(f.size());
+}
+
+// The bump's crest (the vertices within 5/8 of its width of the axis) must be
+// in the field's top 5%. On the side (+x: halfway along the front-top
+// direction) with the default bias, and anywhere with the bias off.
+TEST(AttentionField, ASmallBumpOnASphereIsInTheTopFivePercent) {
+  struct Case {
+    Vec3 axis;
+    float view_bias;
+  };
+  const float s = 1.0f / std::sqrt(3.0f);
+  for (const Case& c : {Case{{1, 0, 0}, 0.75f}, Case{{0, 0, 1}, 0.75f}, Case{{-s, -s, -s}, 0.0f},
+                        Case{{0, -1, 0}, 0.0f}}) {
+    const Mesh m = bumped_sphere(c.axis, 0.03f, 0.08f);
+    AttentionFieldOptions o;
+    o.view_bias = c.view_bias;
+    auto field = field_of(m, o);
+    ASSERT_TRUE(field.ok()) << field.status().to_string();
+    const float top5 = quantile(*field, 0.95);
+    const std::vector<size_t> crest = cap_of(m, c.axis, 0.05f);
+    ASSERT_GE(crest.size(), 5u);
+    for (size_t v : crest)
+      EXPECT_GE((*field)[v], top5) << "crest vertex " << v << " of the bump at (" << c.axis.x << ", " << c.axis.y
+                                   << ", " << c.axis.z << "), bias " << c.view_bias;
+  }
+}
+
+// Range: the field spans [min_importance, 1] and few vertices share the top,
+// on generated shapes from smooth to faceted (the paper's field put 50-90% of
+// the vertices at 1).
+TEST(AttentionField, SpansItsRangeWithFewVerticesAtTheMaximum) {
+  std::vector<Mesh> shapes = {testing::icosphere(4), bumped_sphere({0, 1, 0}, 0.2f, 0.3f), testing::icosphere(1),
+                              bumped_sphere({1, 0, 0}, -0.3f, 0.5f)};
+  AttentionFieldOptions o;
+  o.min_importance = 0.3f;
+  for (size_t i = 0; i < shapes.size(); ++i) {
+    auto field = field_of(shapes[i], o);
+    ASSERT_TRUE(field.ok()) << field.status().to_string();
+    ASSERT_EQ(field->size(), shapes[i].vertex_count());
+    const auto [lo, hi] = std::minmax_element(field->begin(), field->end());
+    // Equal values at either end share their mean rank.
+    EXPECT_GE(*lo, 0.3f - 1e-6f) << "shape " << i;
+    EXPECT_LT(*lo, 0.301f) << "shape " << i;
+    EXPECT_LE(*hi, 1.0f + 1e-6f) << "shape " << i;
+    EXPECT_GT(*hi, 0.999f) << "shape " << i;
+    EXPECT_LE(share_at_max(*field), 0.05) << "shape " << i;
+    // Rank normalization: the median sits in the middle of the range.
+    EXPECT_NEAR(quantile(*field, 0.5), 0.65f, 0.05f) << "shape " << i;
+  }
+}
+
+// The Gaussian means over the grid equal a brute-force sum over every vertex
+// within 2 sigma, on a random cloud (several cells wide, one vertex near each
+// corner of the grid).
+TEST(AttentionField, GridMeansEqualBruteForce) {
+  std::vector<float> p, h;
+  uint32_t state = 12345;
+  auto next = [&]() {
+    state = state * 1664525u + 1013904223u;
+    return float(state >> 8) / float(1u << 24);
+  };
+  for (int i = 0; i < 3000; ++i) {
+    p.insert(p.end(), {next(), 0.5f * next(), 0.25f * next()});
+    h.push_back(next());
+  }
+  AttentionFieldOptions o;
+  o.coarse_sigma = 0.05f;
+  const size_t n = h.size();
+  const VertexGrid grid = build_vertex_grid(p.data(), h.data(), n, o);
+  size_t checked = 0;
+  for (size_t v = 0; v < n; v += 7) {
+    double sum = 0, weight = 0;
+    for (size_t u = 0; u < n; ++u) {
+      const float dx = p[3 * u] - p[3 * v], dy = p[3 * u + 1] - p[3 * v + 1], dz = p[3 * u + 2] - p[3 * v + 2];
+      const float d2 = dx * dx + dy * dy + dz * dz;
+      if (d2 > 4 * grid.sigma * grid.sigma) continue;
+      const float t = 1.0f - d2 / (4 * grid.sigma * grid.sigma);
+      const double w = double(t) * double(t);
+      sum += w * h[u];
+      weight += w;
+    }
+    const float got = gaussian_curvature_mean(grid.sorted.data(), grid.cell_start.data(), grid.lo, grid.cell,
+                                              grid.dims, p[3 * v], p[3 * v + 1], p[3 * v + 2], grid.sigma);
+    EXPECT_NEAR(got, sum / weight, 1e-5) << "vertex " << v;
+    ++checked;
+  }
+  EXPECT_GT(checked, 400u);
+}
+
+// On a sphere the curvature cue is flat, so the bias alone orders it: the
+// front-top cap outranks the back-bottom one, and with the bias off neither does.
+TEST(AttentionField, FrontTopBiasOrdersAUniformSphere) {
+  const Mesh m = testing::icosphere(4);
+  const float s = 1.0f / std::sqrt(2.0f);
+  const std::vector<size_t> front = cap_of(m, {0, s, s}, 0.3f), back = cap_of(m, {0, -s, -s}, 0.3f);
+  auto mean_over = [](const std::vector<float>& f, const std::vector<size_t>& set) {
+    double sum = 0;
+    for (size_t v : set) sum += f[v];
+    return sum / double(set.size());
+  };
+  auto biased = field_of(m);
+  ASSERT_TRUE(biased.ok());
+  EXPECT_GT(mean_over(*biased, front), 0.9);
+  EXPECT_LT(mean_over(*biased, back), 0.4);
+  AttentionFieldOptions off;
+  off.view_bias = 0;
+  auto flat = field_of(m, off);
+  ASSERT_TRUE(flat.ok());
+  EXPECT_LT(std::abs(mean_over(*flat, front) - mean_over(*flat, back)), 0.15);
+}
+
+TEST(AttentionField, RefusesBadOptionsAndHandlesNoVertices) {
+  const Mesh m = testing::icosphere(1);
+  const std::vector<float> h = curvature_of(m);
+  std::vector<float> field;
+  AttentionFieldOptions bad;
+  bad.coarse_sigma = 0;
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), m.vertex_count(), bad, &field, kCpu).code(),
+            StatusCode::kInvalidArgument);
+  bad = {};
+  bad.view_bias = 1.5f;
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), m.vertex_count(), bad, &field, kCpu).code(),
+            StatusCode::kInvalidArgument);
+  bad = {};
+  bad.min_importance = 0;
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), m.vertex_count(), bad, &field, kCpu).code(),
+            StatusCode::kInvalidArgument);
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), nullptr, m.vertex_count(), {}, &field, kCpu).code(),
+            StatusCode::kInvalidArgument);
+  field.assign(3, 1.0f);
+  EXPECT_TRUE(cpu::attention_field(nullptr, nullptr, 0, {}, &field, kCpu).ok());
+  EXPECT_TRUE(field.empty());
+}
+
+}  // namespace
+}  // namespace vpr

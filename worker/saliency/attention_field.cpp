@@ -1,0 +1,155 @@
+// Stage 4 for the surface back half: the attention field (attention_field.h).
+#include "saliency/attention_field.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+namespace vpr {
+namespace {
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// x / median capped at `cap`; a median of 0 (mostly flat, CAD) takes the
+// median of the positive values instead, and all-flat gives 1 everywhere.
+std::vector<double> over_median(const float* x, size_t n, double cap) {
+  std::vector<double> v(x, x + n);
+  double ref = median_of(v);
+  if (!(ref > 0)) {
+    std::vector<double> positive;
+    for (double t : v)
+      if (t > 0) positive.push_back(t);
+    ref = median_of(positive);
+  }
+  for (double& t : v) t = ref > 0 ? std::min(t / ref, cap) : 1.0;
+  return v;
+}
+
+}  // namespace
+
+Status check_attention_field_args(const AttentionFieldOptions& o, size_t vertex_count, const float* curvature) {
+  if (!(o.coarse_sigma > 0.0f && o.coarse_sigma <= 0.5f))
+    return invalid_argument("attention field: coarse_sigma = " + std::to_string(o.coarse_sigma) +
+                            " of the diagonal, it must lie in (0, 0.5]");
+  if (!(o.curvature_cap >= 1.0f) || !std::isfinite(o.curvature_cap))
+    return invalid_argument("attention field: curvature_cap = " + std::to_string(o.curvature_cap) +
+                            ", it must be finite and at least 1");
+  if (!(o.view_bias >= 0.0f && o.view_bias <= 1.0f))
+    return invalid_argument("attention field: view_bias = " + std::to_string(o.view_bias) + ", it must lie in [0, 1]");
+  if (o.view_bias > 0.0f && !(dot(o.view_direction, o.view_direction) > 0.0f))
+    return invalid_argument("attention field: view_direction is zero or not finite");
+  if (!(o.min_importance > 0.0f && o.min_importance <= 1.0f))
+    return invalid_argument("attention field: min_importance = " + std::to_string(o.min_importance) +
+                            ", it must lie in (0, 1]");
+  if (vertex_count > 0 && curvature == nullptr) return invalid_argument("attention field: no curvature given");
+  if (vertex_count >= (size_t(1) << 31))
+    return resource_exhausted("attention field: " + std::to_string(vertex_count) + " vertices, the limit is 2^31");
+  return Status::Ok();
+}
+
+VertexGrid build_vertex_grid(const float* vertices, const float* curvature, size_t n,
+                             const AttentionFieldOptions& options) {
+  VertexGrid g;
+  float hi[3];
+  for (int a = 0; a < 3; ++a) g.lo[a] = hi[a] = n ? vertices[a] : 0.0f;
+  for (size_t v = 0; v < n; ++v)
+    for (int a = 0; a < 3; ++a) {
+      g.lo[a] = std::min(g.lo[a], vertices[3 * v + a]);
+      hi[a] = std::max(hi[a], vertices[3 * v + a]);
+    }
+  double diagonal2 = 0;
+  for (int a = 0; a < 3; ++a) diagonal2 += double(hi[a] - g.lo[a]) * double(hi[a] - g.lo[a]);
+  g.sigma = options.coarse_sigma * (diagonal2 > 0 ? float(std::sqrt(diagonal2)) : 1.0f);
+  g.cell = 2.0f * g.sigma;
+  // At most 256 cells a side: a coarser cell than asked only widens the scan.
+  for (int a = 0; a < 3; ++a)
+    g.cell = std::max(g.cell, (hi[a] - g.lo[a]) / 256.0f);
+  for (int a = 0; a < 3; ++a) g.dims[a] = std::max(1, int((hi[a] - g.lo[a]) / g.cell) + 1);
+  const size_t cells = size_t(g.dims[0]) * g.dims[1] * g.dims[2];
+  std::vector<uint32_t> cell_of(n);
+  g.cell_start.assign(cells + 1, 0);
+  for (size_t v = 0; v < n; ++v) {
+    int c[3];
+    for (int a = 0; a < 3; ++a) {
+      const int t = int((vertices[3 * v + a] - g.lo[a]) / g.cell);
+      c[a] = std::clamp(t, 0, g.dims[a] - 1);
+    }
+    cell_of[v] = uint32_t((size_t(c[2]) * g.dims[1] + c[1]) * g.dims[0] + c[0]);
+    ++g.cell_start[cell_of[v] + 1];
+  }
+  std::partial_sum(g.cell_start.begin(), g.cell_start.end(), g.cell_start.begin());
+  std::vector<uint32_t> next(g.cell_start.begin(), g.cell_start.end() - 1);
+  g.order.resize(n);
+  g.sorted.resize(4 * n);
+  for (size_t v = 0; v < n; ++v) {  // counting sort: stable, so the order is the same on every run
+    const uint32_t t = next[cell_of[v]]++;
+    g.order[t] = uint32_t(v);
+    for (int a = 0; a < 3; ++a) g.sorted[4 * t + a] = vertices[3 * v + a];
+    g.sorted[4 * t + 3] = curvature[v];
+  }
+  return g;
+}
+
+void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, size_t n,
+                            const AttentionFieldOptions& o, std::vector<float>* importance) {
+  const std::vector<double> fine = over_median(curvature, n, o.curvature_cap);
+  const std::vector<double> wide = over_median(coarse, n, o.curvature_cap);
+  // Nearness along the view direction, 0 at the far end of the model, 1 at the near one.
+  const Vec3d d{o.view_direction.x, o.view_direction.y, o.view_direction.z};
+  std::vector<double> along(n);
+  double lo = 0, hi = 0;
+  for (size_t v = 0; v < n; ++v) {
+    along[v] = d.x * vertices[3 * v] + d.y * vertices[3 * v + 1] + d.z * vertices[3 * v + 2];
+    lo = v ? std::min(lo, along[v]) : along[v];
+    hi = v ? std::max(hi, along[v]) : along[v];
+  }
+  std::vector<double> raw(n);
+  for (size_t v = 0; v < n; ++v) {
+    const double nearness = hi > lo ? (along[v] - lo) / (hi - lo) : 1.0;
+    raw[v] = std::sqrt(0.5 * (fine[v] + wide[v])) * (1.0 - o.view_bias + o.view_bias * nearness);
+  }
+  // Rank normalization: equal raw values share their mean rank.
+  std::vector<uint32_t> by_value(n);
+  std::iota(by_value.begin(), by_value.end(), 0u);
+  std::sort(by_value.begin(), by_value.end(), [&](uint32_t a, uint32_t b) { return raw[a] < raw[b]; });
+  importance->assign(n, 1.0f);
+  const double span = 1.0 - double(o.min_importance);
+  for (size_t i = 0; i < n;) {
+    size_t j = i;
+    while (j < n && raw[by_value[j]] == raw[by_value[i]]) ++j;
+    const double rank = n > 1 ? 0.5 * double(i + j - 1) / double(n - 1) : 1.0;
+    for (size_t t = i; t < j; ++t) (*importance)[by_value[t]] = float(o.min_importance + span * rank);
+    i = j;
+  }
+}
+
+namespace cpu {
+
+Status attention_field(const float* vertices, const float* curvature, size_t n, const AttentionFieldOptions& options,
+                       std::vector<float>* importance, const ExecContext&) {
+  assert(importance != nullptr);
+  VPR_RETURN_IF_ERROR(check_attention_field_args(options, n, curvature));
+  importance->clear();
+  if (n == 0) return Status::Ok();
+  const VertexGrid grid = build_vertex_grid(vertices, curvature, n, options);
+  std::vector<float> coarse(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v)
+      coarse[v] = gaussian_curvature_mean(grid.sorted.data(), grid.cell_start.data(), grid.lo, grid.cell, grid.dims,
+                                          vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2], grid.sigma);
+  });
+  finish_attention_field(vertices, curvature, coarse.data(), n, options, importance);
+  return Status::Ok();
+}
+
+}  // namespace cpu
+}  // namespace vpr

@@ -1,0 +1,63 @@
+// GPU twin of the attention field (attention_field.h): the per-vertex Gaussian
+// means of |H| over the host-built grid, one thread a vertex, with the same
+// arithmetic as the CPU twin (gaussian_curvature_mean, compiled without FMA
+// contraction); the rank normalization stays on the host.
+#include <cassert>
+
+#include "gpu/cuda_check.h"
+#include "gpu/device_buffer.h"
+#include "saliency/attention_field.h"
+
+namespace vpr::cuda {
+namespace {
+
+struct GridShape {
+  float lo[3];
+  float cell;
+  int dims[3];
+};
+
+// vertices: #V x 3 in original order; coarse: #V outputs in original order.
+__global__ void coarse_curvature_kernel(const float* vertices, uint32_t n, const float* sorted,
+                                        const uint32_t* cell_start, GridShape shape, float sigma, float* coarse) {
+  const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= n) return;
+  coarse[v] = gaussian_curvature_mean(sorted, cell_start, shape.lo, shape.cell, shape.dims, vertices[3 * v],
+                                      vertices[3 * v + 1], vertices[3 * v + 2], sigma);
+}
+
+}  // namespace
+
+Status attention_field(const float* vertices, const float* curvature, size_t n, const AttentionFieldOptions& options,
+                       std::vector<float>* importance, const ExecContext& ctx) {
+  assert(importance != nullptr);
+  VPR_RETURN_IF_ERROR(check_attention_field_args(options, n, curvature));
+  importance->clear();
+  if (n == 0) return Status::Ok();
+  const VertexGrid grid = build_vertex_grid(vertices, curvature, n, options);
+  GridShape shape;
+  for (int a = 0; a < 3; ++a) {
+    shape.lo[a] = grid.lo[a];
+    shape.dims[a] = grid.dims[a];
+  }
+  shape.cell = grid.cell;
+
+  DeviceBuffer<float> d_vertices, d_sorted, d_coarse;
+  DeviceBuffer<uint32_t> d_cell_start;
+  VPR_RETURN_IF_ERROR(d_vertices.upload(vertices, 3 * n, ctx));
+  VPR_RETURN_IF_ERROR(d_sorted.upload(grid.sorted.data(), grid.sorted.size(), ctx));
+  VPR_RETURN_IF_ERROR(d_cell_start.upload(grid.cell_start.data(), grid.cell_start.size(), ctx));
+  VPR_RETURN_IF_ERROR(d_coarse.allocate(n, ctx));
+  const cudaStream_t stream = stream_of(ctx);
+  coarse_curvature_kernel<<<blocks_for(n), kBlock, 0, stream>>>(d_vertices.get(), uint32_t(n), d_sorted.get(),
+                                                                d_cell_start.get(), shape, grid.sigma,
+                                                                d_coarse.get());
+  VPR_CUDA_LAUNCHED("coarse_curvature_kernel");
+  std::vector<float> coarse(n);
+  VPR_RETURN_IF_ERROR(d_coarse.download(coarse.data(), n));
+  VPR_CUDA_TRY(cudaStreamSynchronize(stream));
+  finish_attention_field(vertices, curvature, coarse.data(), n, options, importance);
+  return Status::Ok();
+}
+
+}  // namespace vpr::cuda
