@@ -34,6 +34,12 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--awlop-support", values.awlop_support, "h from 'target' spacing or 'paper' (input edges)")
       ->check(CLI::IsMember({"target", "paper"}))
       ->capture_default_str();
+  cmd->add_option("--view-bias", o.attention.view_bias,
+                  "Attention field: weight of the front-top bias (+y up, +z front), 0 = off")
+      ->capture_default_str();
+  cmd->add_option("--attention-sigma", o.attention.coarse_sigma,
+                  "Attention field: coarse curvature scale, a fraction of the bounding-box diagonal")
+      ->capture_default_str();
   cmd->add_option("--density", values.density,
                   "Vertex density: perception (curvature x saliency, CVT on the surface), curvature, uniform, or "
                   "paper (the paper's sampling, AWLOP and advancing front)")

@@ -28,14 +28,15 @@ class PipelineGpu : public ::testing::Test {
     input_ = std::move(mesh).value();
   }
 
-  StatusOr<PipelineResult> run(DevicePolicy policy, DeviceBudget* budget = nullptr) {
+  StatusOr<PipelineResult> run(DevicePolicy policy, DeviceBudget* budget = nullptr,
+                               DensityMode density = DensityMode::kPaper) {
     PipelineOptions options;
     options.target_vertices = kTarget;
     options.device = policy;
     options.device_budget = budget;
-    // The paper's back half: the stages with CUDA twins (the surface CVT
-    // back half has none yet and runs on the CPU).
-    options.density = DensityMode::kPaper;
+    // The paper's back half by default: the stages with CUDA twins (the
+    // surface CVT back half has none yet and runs on the CPU).
+    options.density = density;
     return run_pipeline(input_, options);
   }
 
@@ -78,6 +79,22 @@ TEST_F(PipelineGpu, EveryTwinRunsOnTheGpuAndAgreesWithTheCpu) {
   auto h = hausdorff_distance(cpu->mesh, gpu->mesh, ho);
   ASSERT_TRUE(h.ok()) << h.status().to_string();
   EXPECT_LT(h->mean, 1e-4) << "GPU and CPU outputs differ by " << h->mean << " of the diagonal on average";
+}
+
+// The surface back half's field (the attention field) runs on the GPU with
+// the CPU's arithmetic: the same field, hence the same density and the same
+// CVT result.
+TEST_F(PipelineGpu, PerceptionDensityFieldRunsOnTheGpuAndEqualsTheCpu) {
+  auto gpu = run(DevicePolicy::kCuda, nullptr, DensityMode::kPerception);
+  ASSERT_TRUE(gpu.ok()) << gpu.status().to_string();
+  auto cpu = run(DevicePolicy::kCpu, nullptr, DensityMode::kPerception);
+  ASSERT_TRUE(cpu.ok()) << cpu.status().to_string();
+  const StageTiming* t = find_stage(*gpu, "saliency_field");
+  ASSERT_NE(t, nullptr);
+  EXPECT_EQ(t->device, "cuda") << t->note;
+  EXPECT_EQ(gpu->input_importance, cpu->input_importance);
+  EXPECT_EQ(gpu->mesh.positions, cpu->mesh.positions);
+  EXPECT_EQ(gpu->mesh.indices, cpu->mesh.indices);
 }
 
 TEST_F(PipelineGpu, SameInputGivesIdenticalOutputOnTheGpu) {

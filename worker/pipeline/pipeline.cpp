@@ -17,6 +17,7 @@
 #ifdef VPR_HAVE_CUDA
 #include "saliency/gpu_saliency.h"
 #endif
+#include "saliency/attention_field.h"
 #include "saliency/unproject.h"
 
 namespace vpr {
@@ -193,6 +194,7 @@ Status validate_options(const PipelineOptions& o) {
   if (!(o.field.beta > 0 && o.field.beta < 1)) return invalid_argument("beta must be in (0, 1)");
   if (!(o.field.min_importance > 0 && o.field.min_importance <= 1))
     return invalid_argument("min importance must be in (0, 1]");
+  VPR_RETURN_IF_ERROR(check_attention_field_args(o.attention, 0, nullptr));
   if (!(o.awlop.mu >= 0 && o.awlop.mu <= 0.5)) return invalid_argument("mu must be in [0, 0.5]");
   if (o.awlop.k < 1 || o.awlop.k > 64) return invalid_argument("AWLOP k must be in [1, 64]");
   if (o.awlop.iterations < 0 || o.awlop.iterations > 200)
@@ -326,11 +328,25 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
   for (double a : areas) area += a;
   const double mean_edge = mean_edge_length(input);
   const double spacing_out = target_spacing(area, options.target_vertices);
-  VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {
-    const float scale = resolve_depth_scale(options.field, spacing_out, mean_edge);
-    return VPR_TWIN(c, saliency_field)(input.positions.data(), input.vertex_count(), saliency_points.data(),
-                                       saliency_points.size() / 3, options.field, scale, &result.input_importance, c);
-  }));
+  // The paper's field (Algorithm 1) for its own back half; the attention
+  // field (attention_field.h) for the surface CVT, whose density also reuses
+  // the curvature computed here.
+  std::vector<double> curvature;
+  if (options.density == DensityMode::kPaper) {
+    VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {
+      const float scale = resolve_depth_scale(options.field, spacing_out, mean_edge);
+      return VPR_TWIN(c, saliency_field)(input.positions.data(), input.vertex_count(), saliency_points.data(),
+                                         saliency_points.size() / 3, options.field, scale, &result.input_importance,
+                                         c);
+    }));
+  } else {
+    VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {
+      if (curvature.empty()) curvature = mean_curvature(input);  // a CPU rerun after a GPU failure keeps it
+      const std::vector<float> h(curvature.begin(), curvature.end());
+      return VPR_TWIN(c, attention_field)(input.positions.data(), h.data(), input.vertex_count(), options.attention,
+                                          &result.input_importance, c);
+    }));
+  }
 
   // Stages 5-7 on the input surface: a converged CVT with the chosen density,
   // then its dual. Polygon soups (no usable connectivity) go on below.
@@ -342,7 +358,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     VPR_RETURN_IF_ERROR(stage.run(
         "density", cpu,
         [&]() -> Status {
-          const std::vector<float> d = vertex_density(input, result.input_importance, options.density);
+          const std::vector<float> d = vertex_density(curvature, result.input_importance, options.density);
           std::vector<float> channels(2 * input.vertex_count());
           for (size_t v = 0; v < input.vertex_count(); ++v) {
             channels[2 * v] = result.input_importance[v];

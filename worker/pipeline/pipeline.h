@@ -16,6 +16,7 @@
 #include "job_device.h"
 #include "core/mesh.h"
 #include "surface/meshing.h"
+#include "saliency/attention_field.h"
 #include "saliency/saliency_field.h"
 #include "render/snapshot.h"
 #include "core/status.h"
@@ -55,7 +56,8 @@ struct PipelineOptions {
   int cuda_device = 0;                    // which GPU, when one is used
   DeviceBudget* device_budget = nullptr;  // null: no per-job device memory limit
   ImageSaliencyOptions image;
-  SaliencyFieldOptions field;
+  SaliencyFieldOptions field;          // the paper's field, for DensityMode::kPaper
+  AttentionFieldOptions attention;     // the field of the other density modes
   SamplingOptions sampling;
   AwlopOptions awlop;
   MeshingOptions meshing;

@@ -84,10 +84,15 @@ std::vector<double> mean_curvature(const Mesh& mesh) {
 }
 
 std::vector<float> vertex_density(const Mesh& mesh, const std::vector<float>& importance, DensityMode mode) {
-  const size_t nv = mesh.vertex_count();
+  if (mode == DensityMode::kUniform || mode == DensityMode::kPaper) return std::vector<float>(mesh.vertex_count(), 1.0f);
+  return vertex_density(mean_curvature(mesh), importance, mode);
+}
+
+std::vector<float> vertex_density(const std::vector<double>& h, const std::vector<float>& importance,
+                                  DensityMode mode) {
+  const size_t nv = h.size();
   std::vector<float> d(nv, 1.0f);
   if (mode == DensityMode::kUniform || mode == DensityMode::kPaper) return d;
-  const std::vector<double> h = mean_curvature(mesh);
   double ref = median_of(h);
   if (!(ref > 0)) {  // mostly flat (CAD): the typical curved vertex sets the scale
     std::vector<double> curved;

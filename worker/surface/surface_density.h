@@ -35,6 +35,10 @@ std::vector<double> mean_curvature(const Mesh& mesh);
 // sqrt(I / median I) clamped to [0.5, 2] (importance moves vertices towards
 // where people look on top of what keeps the shape, never instead of it).
 std::vector<float> vertex_density(const Mesh& mesh, const std::vector<float>& importance, DensityMode mode);
+// The same from |H| per vertex already computed (mean_curvature(mesh)); empty
+// curvature: no curvature term (uniform and paper need none).
+std::vector<float> vertex_density(const std::vector<double>& curvature, const std::vector<float>& importance,
+                                  DensityMode mode);
 
 // Jacobi smoothing of one channel of a per-vertex value over the mesh's
 // edges (each pass: half the value, half its neighbours' mean). The density
