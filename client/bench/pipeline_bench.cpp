@@ -37,7 +37,7 @@ double ms_since(Clock::time_point t) {
 
 // Both back halves' stages (the surface CVT's by default, the paper's with
 // --density paper); a stage a run did not have reads 0.
-const char* kStages[] = {"views", "render", "image_saliency", "unproject", "saliency_field",
+const char* kStages[] = {"views", "render", "image_saliency", "unproject", "visibility", "saliency_field",
                          "density", "cvt", "sampling", "awlop", "meshing"};
 
 struct Args {

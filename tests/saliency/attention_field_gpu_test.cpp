@@ -1,4 +1,6 @@
-// The attention field's GPU twin against its CPU twin (attention_field.h):
+// The attention field's GPU twins against their CPU twins (attention_field.h,
+// visibility.h): the visibility runs the same double arithmetic on both, so
+// the shares must be identical.
 // the weighted means run the same float products in the same order on both
 // (no FMA contraction, no transcendental), so the fields must be identical.
 // Skipped where no CUDA device can be used.
@@ -13,6 +15,7 @@
 #include "gpu/cuda_device.h"
 #include "io/mesh_io.h"
 #include "saliency/attention_field.h"
+#include "saliency/visibility.h"
 #include "surface/surface_density.h"
 
 namespace vpr {
@@ -39,8 +42,8 @@ void expect_twins_agree(const Mesh& m, const AttentionFieldOptions& o, const Exe
   const std::vector<double> hd = mean_curvature(m);
   const std::vector<float> h(hd.begin(), hd.end());
   std::vector<float> cpu_field, gpu_field;
-  ASSERT_TRUE(cpu::attention_field(m.positions.data(), h.data(), m.vertex_count(), o, &cpu_field, kCpu).ok());
-  const Status s = cuda::attention_field(m.positions.data(), h.data(), m.vertex_count(), o, &gpu_field, gpu);
+  ASSERT_TRUE(cpu::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), o, &cpu_field, kCpu).ok());
+  const Status s = cuda::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), o, &gpu_field, gpu);
   ASSERT_TRUE(s.ok()) << s.to_string();
   ASSERT_EQ(gpu_field.size(), cpu_field.size());
   size_t differ = 0;
@@ -63,6 +66,26 @@ TEST_F(AttentionFieldGpu, EqualsCpuOnSpheresAndBunny) {
   expect_twins_agree(*bunny, {}, gpu_, "bunny");
 }
 
+TEST_F(AttentionFieldGpu, VisibilityEqualsCpuOnRenderedViews) {
+  auto renderer = create_renderer(RendererKind::kAuto);
+  ASSERT_TRUE(renderer.ok()) << renderer.status().to_string();
+  auto bunny = read_mesh("../shared/models/bunny.obj");
+  const Mesh mesh = bunny.ok() ? *bunny : testing::icosphere(5);
+  for (int count : {6, 14}) {
+    ViewOptions o;
+    o.count = count;
+    auto views = make_views(mesh, o);
+    ASSERT_TRUE(views.ok());
+    std::vector<Snapshot> shots;
+    ASSERT_TRUE((*renderer)->render(mesh, *views, &shots).ok());
+    std::vector<float> cpu_vis, gpu_vis;
+    ASSERT_TRUE(cpu::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, {}, &cpu_vis, kCpu).ok());
+    const Status s = cuda::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, {}, &gpu_vis, gpu_);
+    ASSERT_TRUE(s.ok()) << s.to_string();
+    EXPECT_EQ(gpu_vis, cpu_vis) << count << " views";
+  }
+}
+
 TEST_F(AttentionFieldGpu, RefusesLikeCpuAndRunsOutOfBudgetCleanly) {
   const Mesh m = testing::icosphere(2);
   const std::vector<double> hd = mean_curvature(m);
@@ -70,12 +93,12 @@ TEST_F(AttentionFieldGpu, RefusesLikeCpuAndRunsOutOfBudgetCleanly) {
   std::vector<float> field;
   AttentionFieldOptions bad;
   bad.curvature_cap = 0.5f;
-  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), m.vertex_count(), bad, &field, gpu_).code(),
+  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), bad, &field, gpu_).code(),
             StatusCode::kInvalidArgument);
   DeviceBudget tiny;
   tiny.limit = 64;
   const ExecContext small{Device::kCuda, gpu_.stream, &tiny};
-  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), m.vertex_count(), {}, &field, small).code(),
+  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), {}, &field, small).code(),
             StatusCode::kResourceExhausted);
   EXPECT_EQ(tiny.used.load(), 0u);
 }

@@ -26,7 +26,7 @@ std::vector<float> curvature_of(const Mesh& mesh) {
 StatusOr<std::vector<float>> field_of(const Mesh& mesh, const AttentionFieldOptions& options = {}) {
   const std::vector<float> h = curvature_of(mesh);
   std::vector<float> field;
-  VPR_RETURN_IF_ERROR(cpu::attention_field(mesh.positions.data(), h.data(), mesh.vertex_count(), options, &field, kCpu));
+  VPR_RETURN_IF_ERROR(cpu::attention_field(mesh.positions.data(), h.data(), nullptr, mesh.vertex_count(), options, &field, kCpu));
   return field;
 }
 
@@ -180,20 +180,20 @@ TEST(AttentionField, RefusesBadOptionsAndHandlesNoVertices) {
   std::vector<float> field;
   AttentionFieldOptions bad;
   bad.coarse_sigma = 0;
-  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), m.vertex_count(), bad, &field, kCpu).code(),
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), bad, &field, kCpu).code(),
             StatusCode::kInvalidArgument);
   bad = {};
   bad.view_bias = 1.5f;
-  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), m.vertex_count(), bad, &field, kCpu).code(),
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), bad, &field, kCpu).code(),
             StatusCode::kInvalidArgument);
   bad = {};
   bad.min_importance = 0;
-  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), m.vertex_count(), bad, &field, kCpu).code(),
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), bad, &field, kCpu).code(),
             StatusCode::kInvalidArgument);
-  EXPECT_EQ(cpu::attention_field(m.positions.data(), nullptr, m.vertex_count(), {}, &field, kCpu).code(),
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), nullptr, nullptr, m.vertex_count(), {}, &field, kCpu).code(),
             StatusCode::kInvalidArgument);
   field.assign(3, 1.0f);
-  EXPECT_TRUE(cpu::attention_field(nullptr, nullptr, 0, {}, &field, kCpu).ok());
+  EXPECT_TRUE(cpu::attention_field(nullptr, nullptr, nullptr, 0, {}, &field, kCpu).ok());
   EXPECT_TRUE(field.empty());
 }
 

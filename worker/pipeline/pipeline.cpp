@@ -19,6 +19,7 @@
 #endif
 #include "saliency/attention_field.h"
 #include "saliency/unproject.h"
+#include "saliency/visibility.h"
 
 namespace vpr {
 namespace {
@@ -318,6 +319,14 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
       return Status::Ok();
     }));
   }
+  // The attention field's visibility cue, while the depth buffers are here.
+  std::vector<float> visibility;
+  if (options.density != DensityMode::kPaper) {
+    VPR_RETURN_IF_ERROR(stage.run_twin("visibility", *device, [&](const ExecContext& c) -> Status {
+      return VPR_TWIN(c, view_visibility)(input.positions.data(), input.vertex_count(), views, snapshots,
+                                          options.visibility, &visibility, c);
+    }));
+  }
   snapshots.clear();
   features.clear();
   view_points.clear();
@@ -343,8 +352,9 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {
       if (curvature.empty()) curvature = mean_curvature(input);  // a CPU rerun after a GPU failure keeps it
       const std::vector<float> h(curvature.begin(), curvature.end());
-      return VPR_TWIN(c, attention_field)(input.positions.data(), h.data(), input.vertex_count(), options.attention,
-                                          &result.input_importance, c);
+      return VPR_TWIN(c, attention_field)(input.positions.data(), h.data(),
+                                          visibility.empty() ? nullptr : visibility.data(), input.vertex_count(),
+                                          options.attention, &result.input_importance, c);
     }));
   }
 

@@ -18,6 +18,7 @@
 #include "surface/meshing.h"
 #include "saliency/attention_field.h"
 #include "saliency/saliency_field.h"
+#include "saliency/visibility.h"
 #include "render/snapshot.h"
 #include "core/status.h"
 #include "render/views.h"
@@ -58,6 +59,7 @@ struct PipelineOptions {
   ImageSaliencyOptions image;
   SaliencyFieldOptions field;          // the paper's field, for DensityMode::kPaper
   AttentionFieldOptions attention;     // the field of the other density modes
+  VisibilityOptions visibility;        // its visibility cue over the views
   SamplingOptions sampling;
   AwlopOptions awlop;
   MeshingOptions meshing;

@@ -99,8 +99,9 @@ VertexGrid build_vertex_grid(const float* vertices, const float* curvature, size
   return g;
 }
 
-void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, size_t n,
-                            const AttentionFieldOptions& o, std::vector<float>* importance) {
+void finish_attention_field(const float* vertices, const float* curvature, const float* coarse,
+                            const float* visibility, size_t n, const AttentionFieldOptions& o,
+                            std::vector<float>* importance) {
   const std::vector<double> fine = over_median(curvature, n, o.curvature_cap);
   const std::vector<double> wide = over_median(coarse, n, o.curvature_cap);
   // Nearness along the view direction, 0 at the far end of the model, 1 at the near one.
@@ -116,6 +117,7 @@ void finish_attention_field(const float* vertices, const float* curvature, const
   for (size_t v = 0; v < n; ++v) {
     const double nearness = hi > lo ? (along[v] - lo) / (hi - lo) : 1.0;
     raw[v] = std::sqrt(0.5 * (fine[v] + wide[v])) * (1.0 - o.view_bias + o.view_bias * nearness);
+    if (visibility) raw[v] *= std::clamp(double(visibility[v]), 0.0, 1.0);
   }
   // Rank normalization: equal raw values share their mean rank.
   std::vector<uint32_t> by_value(n);
@@ -134,8 +136,8 @@ void finish_attention_field(const float* vertices, const float* curvature, const
 
 namespace cpu {
 
-Status attention_field(const float* vertices, const float* curvature, size_t n, const AttentionFieldOptions& options,
-                       std::vector<float>* importance, const ExecContext&) {
+Status attention_field(const float* vertices, const float* curvature, const float* visibility, size_t n,
+                       const AttentionFieldOptions& options, std::vector<float>* importance, const ExecContext&) {
   assert(importance != nullptr);
   VPR_RETURN_IF_ERROR(check_attention_field_args(options, n, curvature));
   importance->clear();
@@ -147,7 +149,7 @@ Status attention_field(const float* vertices, const float* curvature, size_t n, 
       coarse[v] = gaussian_curvature_mean(grid.sorted.data(), grid.cell_start.data(), grid.lo, grid.cell, grid.dims,
                                           vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2], grid.sigma);
   });
-  finish_attention_field(vertices, curvature, coarse.data(), n, options, importance);
+  finish_attention_field(vertices, curvature, coarse.data(), visibility, n, options, importance);
   return Status::Ok();
 }
 

@@ -28,8 +28,8 @@ __global__ void coarse_curvature_kernel(const float* vertices, uint32_t n, const
 
 }  // namespace
 
-Status attention_field(const float* vertices, const float* curvature, size_t n, const AttentionFieldOptions& options,
-                       std::vector<float>* importance, const ExecContext& ctx) {
+Status attention_field(const float* vertices, const float* curvature, const float* visibility, size_t n,
+                       const AttentionFieldOptions& options, std::vector<float>* importance, const ExecContext& ctx) {
   assert(importance != nullptr);
   VPR_RETURN_IF_ERROR(check_attention_field_args(options, n, curvature));
   importance->clear();
@@ -56,7 +56,7 @@ Status attention_field(const float* vertices, const float* curvature, size_t n, 
   std::vector<float> coarse(n);
   VPR_RETURN_IF_ERROR(d_coarse.download(coarse.data(), n));
   VPR_CUDA_TRY(cudaStreamSynchronize(stream));
-  finish_attention_field(vertices, curvature, coarse.data(), n, options, importance);
+  finish_attention_field(vertices, curvature, coarse.data(), visibility, n, options, importance);
   return Status::Ok();
 }
 

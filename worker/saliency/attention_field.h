@@ -15,6 +15,8 @@
 //    convention of glTF 2.0 and of most scanned and modelled meshes. The
 //    nearness of a vertex to a viewer in that direction scales the cue; it is
 //    a bias, not a gate (the far side keeps 1 - view_bias of its weight).
+//  - Visibility over the rendered views (visibility.h), when the caller has
+//    it: the raw value is multiplied by the share of views that see the vertex.
 // The raw value is then normalized by rank to [min_importance, 1], so that the
 // field spans its whole range whatever the input (equal raw values share their
 // mean rank; one vertex, or one set of equal ones, is at the maximum).
@@ -112,16 +114,19 @@ VPR_HD inline float gaussian_curvature_mean(const float* sorted, const uint32_t*
 
 // The raw cue of every vertex and its rank normalization (the host part of
 // both twins): coarse = Gaussian means of |H| per vertex (original order).
-void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, size_t vertex_count,
-                            const AttentionFieldOptions& options, std::vector<float>* importance);
+void finish_attention_field(const float* vertices, const float* curvature, const float* coarse,
+                            const float* visibility, size_t vertex_count, const AttentionFieldOptions& options,
+                            std::vector<float>* importance);
 
 namespace cpu {
 
 // vertices: #V x 3 floats, model space (the pipeline's normalized copy: unit
 // bounding-box diagonal, but any units work). curvature: #V values of |mean
 // curvature| (surface_density.h's mean_curvature), per model unit.
+// visibility: null, or #V values in [0, 1] that scale the raw cue (the share
+// of views that see the vertex, visibility.h).
 // importance: #V values in [min_importance, 1]. No vertices: an empty field.
-Status attention_field(const float* vertices, const float* curvature, size_t vertex_count,
+Status attention_field(const float* vertices, const float* curvature, const float* visibility, size_t vertex_count,
                        const AttentionFieldOptions& options, std::vector<float>* importance, const ExecContext& ctx);
 
 }  // namespace cpu
@@ -131,7 +136,7 @@ Status attention_field(const float* vertices, const float* curvature, size_t ver
 // arithmetic as on the CPU, so the field is identical.
 namespace cuda {
 
-Status attention_field(const float* vertices, const float* curvature, size_t vertex_count,
+Status attention_field(const float* vertices, const float* curvature, const float* visibility, size_t vertex_count,
                        const AttentionFieldOptions& options, std::vector<float>* importance, const ExecContext& ctx);
 
 }  // namespace cuda
