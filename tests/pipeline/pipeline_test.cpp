@@ -83,6 +83,33 @@ INSTANTIATE_TEST_SUITE_P(Models, SharedModel,
                            return name.substr(0, name.find('.'));
                          });
 
+// Every density mode gives the asked vertex count within 2%, and the surface
+// modes' field (the attention field) has range: at most 1% of the vertices at
+// its maximum (issue 24's goal is 30%; the paper's field, kept for kPaper,
+// had 50-90% on the shared models).
+TEST(Pipeline, EveryDensityModeGivesTheAskedCountAndTheSurfaceModesAFieldWithRange) {
+  Mesh bumpy = testing::icosphere(4);
+  for (size_t v = 0; v < bumpy.vertex_count(); ++v) {
+    float* p = &bumpy.positions[3 * v];
+    const float r = 1.0f + 0.1f * std::exp(-((p[0] - 1) * (p[0] - 1) + p[1] * p[1] + p[2] * p[2]) / 0.05f);
+    for (int k = 0; k < 3; ++k) p[k] *= r;
+  }
+  for (DensityMode mode : {DensityMode::kPerception, DensityMode::kCurvature, DensityMode::kUniform, DensityMode::kPaper}) {
+    PipelineOptions o = default_options(1000);
+    o.density = mode;
+    auto result = run_pipeline(bumpy, o);
+    ASSERT_TRUE(result.ok()) << density_mode_name(mode) << ": " << result.status().to_string();
+    const double deviation = std::abs(double(result->mesh.vertex_count()) - 1000.0) / 1000.0;
+    EXPECT_LE(deviation, 0.02) << density_mode_name(mode) << ": " << result->mesh.vertex_count() << " vertices";
+    const std::vector<float>& f = result->input_importance;
+    ASSERT_EQ(f.size(), bumpy.vertex_count());
+    const float top = *std::max_element(f.begin(), f.end());
+    const double at_max =
+        double(std::count_if(f.begin(), f.end(), [&](float x) { return x >= top - 1e-6f; })) / double(f.size());
+    if (mode != DensityMode::kPaper) EXPECT_LE(at_max, 0.01) << density_mode_name(mode);
+  }
+}
+
 TEST(Pipeline, SameSeedGivesIdenticalOutputAtOneAndTwoThreads) {
   auto input = read_mesh("../shared/models/kitten.obj");
   ASSERT_TRUE(input.ok()) << input.status().to_string();
