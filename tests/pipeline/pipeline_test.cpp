@@ -94,7 +94,8 @@ TEST(Pipeline, EveryDensityModeGivesTheAskedCountAndTheSurfaceModesAFieldWithRan
     const float r = 1.0f + 0.1f * std::exp(-((p[0] - 1) * (p[0] - 1) + p[1] * p[1] + p[2] * p[2]) / 0.05f);
     for (int k = 0; k < 3; ++k) p[k] *= r;
   }
-  for (DensityMode mode : {DensityMode::kPerception, DensityMode::kCurvature, DensityMode::kUniform, DensityMode::kPaper}) {
+  for (DensityMode mode :
+       {DensityMode::kPerception, DensityMode::kCurvature, DensityMode::kUniform, DensityMode::kPaper}) {
     PipelineOptions o = default_options(1000);
     o.density = mode;
     auto result = run_pipeline(bumpy, o);

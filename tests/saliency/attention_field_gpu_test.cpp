@@ -38,7 +38,8 @@ class AttentionFieldGpu : public ::testing::Test {
   ExecContext gpu_;
 };
 
-void expect_twins_agree(const Mesh& m, const AttentionFieldOptions& o, const ExecContext& gpu, const std::string& what) {
+void expect_twins_agree(const Mesh& m, const AttentionFieldOptions& o, const ExecContext& gpu,
+                        const std::string& what) {
   const std::vector<double> hd = mean_curvature(m);
   const std::vector<float> h(hd.begin(), hd.end());
   std::vector<float> cpu_field, gpu_field;
@@ -79,8 +80,10 @@ TEST_F(AttentionFieldGpu, VisibilityEqualsCpuOnRenderedViews) {
     std::vector<Snapshot> shots;
     ASSERT_TRUE((*renderer)->render(mesh, *views, &shots).ok());
     std::vector<float> cpu_vis, gpu_vis;
-    ASSERT_TRUE(cpu::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, {}, &cpu_vis, kCpu).ok());
-    const Status s = cuda::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, {}, &gpu_vis, gpu_);
+    ASSERT_TRUE(
+        cpu::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, {}, &cpu_vis, kCpu).ok());
+    const Status s =
+        cuda::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, {}, &gpu_vis, gpu_);
     ASSERT_TRUE(s.ok()) << s.to_string();
     EXPECT_EQ(gpu_vis, cpu_vis) << count << " views";
   }

@@ -1,6 +1,6 @@
 // The attention field (attention_field.h) on shapes whose answer we know: a
 // small bump on a sphere stands out, the field spans [min_importance, 1] with
-// few vertices at the top, the Gaussian means equal brute force, the front-top
+// few vertices at the top, the weighted means equal brute force, the front-top
 // bias orders an otherwise uniform sphere, and bad options are refused.
 #include "saliency/attention_field.h"
 
@@ -26,7 +26,8 @@ std::vector<float> curvature_of(const Mesh& mesh) {
 StatusOr<std::vector<float>> field_of(const Mesh& mesh, const AttentionFieldOptions& options = {}) {
   const std::vector<float> h = curvature_of(mesh);
   std::vector<float> field;
-  VPR_RETURN_IF_ERROR(cpu::attention_field(mesh.positions.data(), h.data(), nullptr, mesh.vertex_count(), options, &field, kCpu));
+  VPR_RETURN_IF_ERROR(
+      cpu::attention_field(mesh.positions.data(), h.data(), nullptr, mesh.vertex_count(), options, &field, kCpu));
   return field;
 }
 
@@ -74,8 +75,8 @@ TEST(AttentionField, ASmallBumpOnASphereIsInTheTopFivePercent) {
     float view_bias;
   };
   const float s = 1.0f / std::sqrt(3.0f);
-  for (const Case& c : {Case{{1, 0, 0}, 0.75f}, Case{{0, 0, 1}, 0.75f}, Case{{-s, -s, -s}, 0.0f},
-                        Case{{0, -1, 0}, 0.0f}}) {
+  for (const Case& c :
+       {Case{{1, 0, 0}, 0.75f}, Case{{0, 0, 1}, 0.75f}, Case{{-s, -s, -s}, 0.0f}, Case{{0, -1, 0}, 0.0f}}) {
     const Mesh m = bumped_sphere(c.axis, 0.03f, 0.08f);
     AttentionFieldOptions o;
     o.view_bias = c.view_bias;
@@ -114,7 +115,7 @@ TEST(AttentionField, SpansItsRangeWithFewVerticesAtTheMaximum) {
   }
 }
 
-// The Gaussian means over the grid equal a brute-force sum over every vertex
+// The weighted means over the grid equal a brute-force sum over every vertex
 // within 2 sigma, on a random cloud (several cells wide, one vertex near each
 // corner of the grid).
 TEST(AttentionField, GridMeansEqualBruteForce) {
@@ -144,8 +145,8 @@ TEST(AttentionField, GridMeansEqualBruteForce) {
       sum += w * h[u];
       weight += w;
     }
-    const float got = gaussian_curvature_mean(grid.sorted.data(), grid.cell_start.data(), grid.lo, grid.cell,
-                                              grid.dims, p[3 * v], p[3 * v + 1], p[3 * v + 2], grid.sigma);
+    const float got = coarse_curvature_mean(grid.sorted.data(), grid.cell_start.data(), grid.lo, grid.cell, grid.dims,
+                                            p[3 * v], p[3 * v + 1], p[3 * v + 2], grid.sigma);
     EXPECT_NEAR(got, sum / weight, 1e-5) << "vertex " << v;
     ++checked;
   }

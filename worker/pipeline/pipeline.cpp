@@ -345,8 +345,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {
       const float scale = resolve_depth_scale(options.field, spacing_out, mean_edge);
       return VPR_TWIN(c, saliency_field)(input.positions.data(), input.vertex_count(), saliency_points.data(),
-                                         saliency_points.size() / 3, options.field, scale, &result.input_importance,
-                                         c);
+                                         saliency_points.size() / 3, options.field, scale, &result.input_importance, c);
     }));
   } else {
     VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {

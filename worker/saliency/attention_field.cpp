@@ -71,8 +71,7 @@ VertexGrid build_vertex_grid(const float* vertices, const float* curvature, size
   g.sigma = options.coarse_sigma * (diagonal2 > 0 ? float(std::sqrt(diagonal2)) : 1.0f);
   g.cell = 2.0f * g.sigma;
   // At most 256 cells a side: a coarser cell than asked only widens the scan.
-  for (int a = 0; a < 3; ++a)
-    g.cell = std::max(g.cell, (hi[a] - g.lo[a]) / 256.0f);
+  for (int a = 0; a < 3; ++a) g.cell = std::max(g.cell, (hi[a] - g.lo[a]) / 256.0f);
   for (int a = 0; a < 3; ++a) g.dims[a] = std::max(1, int((hi[a] - g.lo[a]) / g.cell) + 1);
   const size_t cells = size_t(g.dims[0]) * g.dims[1] * g.dims[2];
   std::vector<uint32_t> cell_of(n);
@@ -99,9 +98,8 @@ VertexGrid build_vertex_grid(const float* vertices, const float* curvature, size
   return g;
 }
 
-void finish_attention_field(const float* vertices, const float* curvature, const float* coarse,
-                            const float* visibility, size_t n, const AttentionFieldOptions& o,
-                            std::vector<float>* importance) {
+void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, const float* visibility,
+                            size_t n, const AttentionFieldOptions& o, std::vector<float>* importance) {
   const std::vector<double> fine = over_median(curvature, n, o.curvature_cap);
   const std::vector<double> wide = over_median(coarse, n, o.curvature_cap);
   // Nearness along the view direction, 0 at the far end of the model, 1 at the near one.
@@ -146,8 +144,8 @@ Status attention_field(const float* vertices, const float* curvature, const floa
   std::vector<float> coarse(n);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t v = r.begin(); v != r.end(); ++v)
-      coarse[v] = gaussian_curvature_mean(grid.sorted.data(), grid.cell_start.data(), grid.lo, grid.cell, grid.dims,
-                                          vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2], grid.sigma);
+      coarse[v] = coarse_curvature_mean(grid.sorted.data(), grid.cell_start.data(), grid.lo, grid.cell, grid.dims,
+                                        vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2], grid.sigma);
   });
   finish_attention_field(vertices, curvature, coarse.data(), visibility, n, options, importance);
   return Status::Ok();

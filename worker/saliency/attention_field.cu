@@ -1,6 +1,6 @@
-// GPU twin of the attention field (attention_field.h): the per-vertex Gaussian
+// GPU twin of the attention field (attention_field.h): the per-vertex weighted
 // means of |H| over the host-built grid, one thread a vertex, with the same
-// arithmetic as the CPU twin (gaussian_curvature_mean, compiled without FMA
+// arithmetic as the CPU twin (coarse_curvature_mean, compiled without FMA
 // contraction); the rank normalization stays on the host.
 #include <cassert>
 
@@ -22,8 +22,8 @@ __global__ void coarse_curvature_kernel(const float* vertices, uint32_t n, const
                                         const uint32_t* cell_start, GridShape shape, float sigma, float* coarse) {
   const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= n) return;
-  coarse[v] = gaussian_curvature_mean(sorted, cell_start, shape.lo, shape.cell, shape.dims, vertices[3 * v],
-                                      vertices[3 * v + 1], vertices[3 * v + 2], sigma);
+  coarse[v] = coarse_curvature_mean(sorted, cell_start, shape.lo, shape.cell, shape.dims, vertices[3 * v],
+                                    vertices[3 * v + 1], vertices[3 * v + 2], sigma);
 }
 
 }  // namespace
@@ -50,8 +50,7 @@ Status attention_field(const float* vertices, const float* curvature, const floa
   VPR_RETURN_IF_ERROR(d_coarse.allocate(n, ctx));
   const cudaStream_t stream = stream_of(ctx);
   coarse_curvature_kernel<<<blocks_for(n), kBlock, 0, stream>>>(d_vertices.get(), uint32_t(n), d_sorted.get(),
-                                                                d_cell_start.get(), shape, grid.sigma,
-                                                                d_coarse.get());
+                                                                d_cell_start.get(), shape, grid.sigma, d_coarse.get());
   VPR_CUDA_LAUNCHED("coarse_curvature_kernel");
   std::vector<float> coarse(n);
   VPR_RETURN_IF_ERROR(d_coarse.download(coarse.data(), n));

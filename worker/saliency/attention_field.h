@@ -2,10 +2,10 @@
 // saliency_field.h, kept for --density paper): where a person is likely to
 // look, as one value per input vertex with range.
 //
-// Two cues, measured on ../shared/gaze/ (docs/perception.md):
+// Three cues, measured on ../shared/gaze/ (docs/perception.md):
 //  - Surface centre-surround (after Lee, Varshney and Jacobs, "Mesh saliency",
 //    SIGGRAPH 2005): |mean curvature| at the input's own scale and averaged
-//    with Gaussian weights at a coarser scale (a fraction of the bounding-box
+//    with Gaussian-like weights at a coarser scale (a fraction of the bounding-box
 //    diagonal), each over its median and capped, so that a small bump on a
 //    smooth surface stands out by its strength, not by a yes/no flag.
 //  - A front-top bias: a person stands in front of an upright object and a
@@ -22,8 +22,8 @@
 // mean rank; one vertex, or one set of equal ones, is at the maximum).
 //
 // Every vertex's value is independent work over a uniform grid of cells two
-// coarse scales wide (the Gaussian's support), shared by both twins; the GPU
-// twin runs the per-vertex Gaussian averages, the rank normalization stays on
+// coarse scales wide (the weights' support), shared by both twins; the GPU
+// twin runs the per-vertex weighted averages, the rank normalization stays on
 // the host.
 #pragma once
 
@@ -40,7 +40,7 @@ namespace vpr {
 struct AttentionFieldOptions {
   // Lee et al. 2005: coarse Gaussian sigma as a fraction of the bounding-box
   // diagonal (their scales are 2..6 eps with eps = 0.3% of the diagonal; 1%
-  // is the middle one). Weights as gaussian_curvature_mean says, within 2 sigma.
+  // is the middle one). Weights as coarse_curvature_mean says, within 2 sigma.
   float coarse_sigma = 0.01f;
   // Each curvature scale over its median is capped here before the two are
   // averaged and square-rooted (the density's curvature term is also a square
@@ -78,11 +78,11 @@ VertexGrid build_vertex_grid(const float* vertices, const float* curvature, size
 
 // Weighted mean of |H| within 2 sigma of vertex p (itself included), over the
 // 27 cells around p's cell. The weight (1 - d^2 / (2 sigma)^2)^2 stands in for
-// Lee et al.'s Gaussian truncated at 2 sigma (within 0.06 of it): plain float
-// products, so both twins (compiled without FMA contraction) get the same bits.
-VPR_HD inline float gaussian_curvature_mean(const float* sorted, const uint32_t* cell_start, const float lo[3],
-                                            float cell, const int dims[3], float px, float py, float pz,
-                                            float sigma) {
+// Lee et al.'s Gaussian truncated at 2 sigma (equal at 0, within 0.05 up to
+// 1 sigma, at most 0.16 lower in its tail): plain float products, so both
+// twins (compiled without FMA contraction) get the same bits.
+VPR_HD inline float coarse_curvature_mean(const float* sorted, const uint32_t* cell_start, const float lo[3],
+                                          float cell, const int dims[3], float px, float py, float pz, float sigma) {
   int c[3];
   const float q[3] = {px, py, pz};
   for (int a = 0; a < 3; ++a) {
@@ -113,10 +113,9 @@ VPR_HD inline float gaussian_curvature_mean(const float* sorted, const uint32_t*
 }
 
 // The raw cue of every vertex and its rank normalization (the host part of
-// both twins): coarse = Gaussian means of |H| per vertex (original order).
-void finish_attention_field(const float* vertices, const float* curvature, const float* coarse,
-                            const float* visibility, size_t vertex_count, const AttentionFieldOptions& options,
-                            std::vector<float>* importance);
+// both twins): coarse = coarse_curvature_mean per vertex (original order).
+void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, const float* visibility,
+                            size_t vertex_count, const AttentionFieldOptions& options, std::vector<float>* importance);
 
 namespace cpu {
 
@@ -132,7 +131,7 @@ Status attention_field(const float* vertices, const float* curvature, const floa
 }  // namespace cpu
 
 // GPU twin, built when VPR_HAVE_CUDA (attention_field.cu): the same contract;
-// the Gaussian means run on ctx's stream, in the same order and float
+// the weighted means run on ctx's stream, in the same order and float
 // arithmetic as on the CPU, so the field is identical.
 namespace cuda {
 

@@ -23,8 +23,8 @@ Status check_visibility_args(const std::vector<View>& views, const std::vector<S
     if (d.width <= 0 || d.height <= 0 || d.pixels.size() != size_t(d.width) * size_t(d.height) ||
         (views[i].width != 0 && (views[i].width != d.width || views[i].height != d.height)))
       return invalid_argument("visibility: view " + views[i].name + " is " + std::to_string(views[i].width) + "x" +
-                              std::to_string(views[i].height) + " but its depth image is " +
-                              std::to_string(d.width) + "x" + std::to_string(d.height));
+                              std::to_string(views[i].height) + " but its depth image is " + std::to_string(d.width) +
+                              "x" + std::to_string(d.height));
   }
   return Status::Ok();
 }
