@@ -11,7 +11,7 @@ packages=(
   libosmesa6-dev libegl-dev libegl1-mesa-dev libegl-mesa0 libgl1-mesa-dri libgl-dev
   libpng-dev nlohmann-json3-dev libcli11-dev libmeshoptimizer-dev
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
-  python3-grpcio python3-protobuf python3-yaml
+  python3-grpcio python3-protobuf python3-yaml python3-numpy
   redis-server libhiredis-dev libssl-dev openssl
 )
 # `install-deps.sh sanitize` (make sanitize, scripts/fuzz.sh): clang, its
