@@ -136,7 +136,7 @@ Mesh remesh(const Mesh& input, uint32_t target, DensityMode mode, CvtStats* cvt 
   if (cvt) *cvt = stats;
   Mesh out;
   std::vector<uint32_t> cell;
-  const Status s = mesh_clusters(refined->mesh, label, target, &out, &cell, nullptr);
+  const Status s = mesh_clusters(refined->mesh, label, stats.clusters, &out, &cell, nullptr);
   EXPECT_TRUE(s.ok()) << s.to_string();
   return out;
 }
