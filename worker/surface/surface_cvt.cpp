@@ -438,19 +438,27 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_
   std::unordered_map<uint64_t, uint32_t> on_loop;
   std::vector<uint32_t> loop_clusters(loops.size(), 0);
   auto loop_key = [](uint32_t cluster, uint32_t loop) { return uint64_t(cluster) << 32 | loop; };
+  // loops_of_cluster: how many loops each cluster meets (one at most, or two
+  // loops would join at its dual vertex).
+  std::vector<uint32_t> loops_of_cluster(count, 0);
   auto loop_add = [&](uint32_t v, uint32_t cluster) {
     if (loop_of[v] == UINT32_MAX) return;
-    if (on_loop[loop_key(cluster, loop_of[v])]++ == 0) ++loop_clusters[loop_of[v]];
+    if (on_loop[loop_key(cluster, loop_of[v])]++ == 0) ++loop_clusters[loop_of[v]], ++loops_of_cluster[cluster];
   };
   auto loop_remove = [&](uint32_t v, uint32_t cluster) {
     if (loop_of[v] == UINT32_MAX) return;
-    if (--on_loop[loop_key(cluster, loop_of[v])] == 0) --loop_clusters[loop_of[v]];
+    if (--on_loop[loop_key(cluster, loop_of[v])] == 0) --loop_clusters[loop_of[v]], --loops_of_cluster[cluster];
   };
   for (uint32_t v = 0; v < nv; ++v)
     if (label[v] != UINT32_MAX) loop_add(v, label[v]);
-  auto loop_keeps = [&](uint32_t v, uint32_t from) {
+  auto loop_keeps = [&](uint32_t v, uint32_t from, uint32_t to) {
     const uint32_t l = loop_of[v];
-    return l == UINT32_MAX || loop_clusters[l] > options.min_per_loop || on_loop[loop_key(from, l)] > 1;
+    if (l == UINT32_MAX) return true;
+    if (loops_of_cluster[to] > 0) {
+      const auto it = on_loop.find(loop_key(to, l));
+      if (it == on_loop.end() || it->second == 0) return false;
+    }  // `to` is on another loop
+    return loop_clusters[l] > options.min_per_loop || on_loop[loop_key(from, l)] > 1;
   };
 
   // Sweeps: for every edge between two cells, the better of moving either
@@ -465,7 +473,7 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_
     return a.energy() + b.energy() - after;  // > 0: E falls
   };
   auto allowed = [&](uint32_t v, uint32_t from, uint32_t to) {
-    return neighbour_groups(adj, label, v, from) == 1 && neighbour_groups(adj, label, v, to) == 1 && loop_keeps(v, from);
+    return neighbour_groups(adj, label, v, from) == 1 && neighbour_groups(adj, label, v, to) == 1 && loop_keeps(v, from, to);
   };
   auto move = [&](uint32_t v, uint32_t to) {
     Cluster& a = clusters[label[v]];
@@ -547,6 +555,7 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_
     clusters.assign(clusters_now, Cluster{});
     on_loop.clear();
     std::fill(loop_clusters.begin(), loop_clusters.end(), 0);
+    loops_of_cluster.assign(clusters_now, 0);
     constant = 0;
     for (uint32_t v = 0; v < nv; ++v) {
       if (label[v] == UINT32_MAX) continue;
@@ -646,6 +655,10 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_
   };
   for (int round = 0; round < options.topology_rounds; ++round) {
     std::vector<uint32_t> bad = defective_cells(mesh, label, clusters_now);
+    for (uint32_t c = 0; c < clusters_now; ++c)  // a cell on two loops would join them
+      if (loops_of_cluster[c] > 1) bad.push_back(c);
+    std::sort(bad.begin(), bad.end());
+    bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
     if (bad.empty() || splits >= split_budget) {
       if (round == 0 || clusters_now == count) break;
       bad.clear();  // no split this round: the merges below bring the count back
@@ -677,6 +690,7 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_
       // Dijkstra from p and q within the cell: q's side becomes the new cell.
       const uint32_t fresh = clusters_now++;
       clusters.emplace_back();
+      loops_of_cluster.push_back(0);
       std::unordered_map<uint32_t, double> dist;
       std::unordered_map<uint32_t, uint32_t> side;
       for (uint32_t v : el) dist[v] = INFINITY;
