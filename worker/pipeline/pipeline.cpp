@@ -401,7 +401,8 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
                       std::to_string(result.cvt.parts) + " parts got fewer than " +
                       std::to_string(cvt.min_per_part) + " vertices (target too small)";
             if (result.cvt.cells_split > 0)
-              note += "; " + std::to_string(result.cvt.cells_split) + " cells split for topology";
+              note += "; " + std::to_string(result.cvt.cells_split) + " cells split for topology, " +
+                      std::to_string(result.cvt.cells_merged) + " merged";
             if (result.cvt.defective_cells > 0)
               note += "; " + std::to_string(result.cvt.defective_cells) + " cells still non-manifold";
             return Status::Ok();
