@@ -14,35 +14,47 @@
 namespace vpr {
 namespace {
 
-// Vertex adjacency in compressed rows, neighbours sorted.
+// Vertex adjacency in compressed rows, neighbours sorted; faces[i]: how
+// many faces the edge to neighbor[i] has (1: a boundary edge).
 struct Adjacency {
-  std::vector<uint32_t> offset, neighbor;
+  std::vector<uint32_t> offset, neighbor, faces;
   size_t degree(uint32_t v) const { return offset[v + 1] - offset[v]; }
   const uint32_t* begin(uint32_t v) const { return neighbor.data() + offset[v]; }
   const uint32_t* end(uint32_t v) const { return neighbor.data() + offset[v + 1]; }
   bool adjacent(uint32_t a, uint32_t b) const { return std::binary_search(begin(a), end(a), b); }
 };
 
+// Rows filled face by face, then each sorted and its repeats counted (no
+// global sort of all edges).
 Adjacency adjacency(const Mesh& mesh) {
-  const size_t nv = mesh.vertex_count();
-  std::vector<uint64_t> edges;
-  edges.reserve(6 * mesh.face_count());
-  for (size_t f = 0; f < mesh.face_count(); ++f)
+  const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
+  std::vector<uint32_t> start(nv + 1, 0);
+  for (size_t i = 0; i < 3 * nf; ++i) start[mesh.indices[i] + 1] += 2;
+  for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<uint32_t> raw(start[nv]), fill(start.begin(), start.end() - 1);
+  for (size_t f = 0; f < nf; ++f)
     for (int c = 0; c < 3; ++c) {
-      const uint64_t a = mesh.indices[3 * f + c], b = mesh.indices[3 * f + (c + 1) % 3];
-      edges.push_back(a << 32 | b);
-      edges.push_back(b << 32 | a);
+      const uint32_t a = mesh.indices[3 * f + c], b = mesh.indices[3 * f + (c + 1) % 3];
+      raw[fill[a]++] = b;
+      raw[fill[b]++] = a;
     }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   Adjacency adj;
   adj.offset.assign(nv + 1, 0);
-  adj.neighbor.resize(edges.size());
-  for (size_t i = 0; i < edges.size(); ++i) {
-    ++adj.offset[(edges[i] >> 32) + 1];
-    adj.neighbor[i] = uint32_t(edges[i]);
+  adj.neighbor.reserve(raw.size() / 2 + nv);
+  adj.faces.reserve(raw.size() / 2 + nv);
+  for (size_t v = 0; v < nv; ++v) {
+    uint32_t* row = raw.data() + start[v];
+    const size_t n = start[v + 1] - start[v];
+    std::sort(row, row + n);
+    for (size_t i = 0; i < n;) {
+      size_t j = i;
+      while (j < n && row[j] == row[i]) ++j;
+      adj.neighbor.push_back(row[i]);
+      adj.faces.push_back(uint32_t(j - i));
+      i = j;
+    }
+    adj.offset[v + 1] = uint32_t(adj.neighbor.size());
   }
-  for (size_t v = 0; v < nv; ++v) adj.offset[v + 1] += adj.offset[v];
   return adj;
 }
 
@@ -96,37 +108,17 @@ size_t neighbour_groups(const Adjacency& adj, const std::vector<uint32_t>& label
 
 // Boundary loops of the surface: per vertex, the loop of boundary edges
 // (edges with one face) it lies on, or UINT32_MAX; per loop, its vertices.
-void boundary_loops(const Mesh& mesh, const Adjacency& adj, std::vector<uint32_t>* loop_of,
-                    std::vector<std::vector<uint32_t>>* loops) {
-  const size_t nv = mesh.vertex_count();
-  std::vector<uint64_t> edges;
-  edges.reserve(3 * mesh.face_count());
-  for (size_t f = 0; f < mesh.face_count(); ++f)
-    for (int c = 0; c < 3; ++c) {
-      const uint64_t a = mesh.indices[3 * f + c], b = mesh.indices[3 * f + (c + 1) % 3];
-      edges.push_back(a < b ? (a << 32 | b) : (b << 32 | a));
-    }
-  std::sort(edges.begin(), edges.end());
-  std::vector<std::vector<uint32_t>> link(nv);  // boundary neighbours (few vertices have any)
-  std::vector<uint32_t> on;
-  for (size_t i = 0; i < edges.size();) {
-    size_t j = i;
-    while (j < edges.size() && edges[j] == edges[i]) ++j;
-    if (j - i == 1) {
-      const uint32_t a = uint32_t(edges[i] >> 32), b = uint32_t(edges[i]);
-      if (link[a].empty()) on.push_back(a);
-      if (link[b].empty()) on.push_back(b);
-      link[a].push_back(b);
-      link[b].push_back(a);
-    }
-    i = j;
-  }
-  (void)adj;
-  std::sort(on.begin(), on.end());
+void boundary_loops(const Adjacency& adj, std::vector<uint32_t>* loop_of, std::vector<std::vector<uint32_t>>* loops) {
+  const size_t nv = adj.offset.size() - 1;
+  auto on_boundary = [&](uint32_t v) {
+    for (uint32_t i = adj.offset[v]; i < adj.offset[v + 1]; ++i)
+      if (adj.faces[i] == 1) return true;
+    return false;
+  };
   loop_of->assign(nv, UINT32_MAX);
   loops->clear();
-  for (uint32_t s : on) {
-    if ((*loop_of)[s] != UINT32_MAX) continue;
+  for (uint32_t s = 0; s < nv; ++s) {
+    if ((*loop_of)[s] != UINT32_MAX || !on_boundary(s)) continue;
     const uint32_t id = uint32_t(loops->size());
     loops->emplace_back();
     std::vector<uint32_t> stack = {s};
@@ -135,10 +127,10 @@ void boundary_loops(const Mesh& mesh, const Adjacency& adj, std::vector<uint32_t
       const uint32_t v = stack.back();
       stack.pop_back();
       loops->back().push_back(v);
-      for (uint32_t w : link[v])
-        if ((*loop_of)[w] == UINT32_MAX) {
-          (*loop_of)[w] = id;
-          stack.push_back(w);
+      for (uint32_t i = adj.offset[v]; i < adj.offset[v + 1]; ++i)
+        if (adj.faces[i] == 1 && (*loop_of)[adj.neighbor[i]] == UINT32_MAX) {
+          (*loop_of)[adj.neighbor[i]] = id;
+          stack.push_back(adj.neighbor[i]);
         }
     }
     std::sort(loops->back().begin(), loops->back().end());
@@ -361,7 +353,7 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_
   // dual keeps it open), taken from its part's quota.
   std::vector<uint32_t> loop_of;
   std::vector<std::vector<uint32_t>> loops;
-  boundary_loops(mesh, adj, &loop_of, &loops);
+  boundary_loops(adj, &loop_of, &loops);
   std::vector<uint32_t> label(nv, UINT32_MAX);
   std::vector<uint32_t> seeds;
   for (const auto& loop : loops) {
