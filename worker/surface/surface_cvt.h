@@ -12,8 +12,12 @@
 // falls monotonically and the loop stops when a sweep lowers it by less than
 // `tolerance` (relative) or moves nothing. Clusters grow over the mesh's
 // edges, never through space, so the two sheets of a thin part, or two parts
-// that touch, are never one cell; a move that would cut a cell in two is not
-// taken.
+// that touch, are never one cell; a move that would cut a cell in two, or
+// close it into a ring, is not taken, so cells stay disks. Each boundary loop
+// keeps at least min_per_loop cells and no cell meets two loops. A cell whose
+// dual vertex would still be non-manifold (a thin part or handle) is split,
+// its elements weighted up so the cells there stay small, and as many flat
+// cells elsewhere are merged away; the sweeps then go on.
 #pragma once
 
 #include <cstdint>
