@@ -76,6 +76,24 @@ struct Counts {
   size_t boundary_edges = 0, non_manifold_edges = 0, loops = 0;
 };
 
+// A torus about the z axis: ring radius R, tube radius r, seg x rings grid.
+Mesh torus(double R, double r, int seg, int rings) {
+  Mesh m;
+  for (int j = 0; j < rings; ++j)
+    for (int i = 0; i < seg; ++i) {
+      const double u = 2 * kPi * j / rings, v = 2 * kPi * i / seg;
+      m.positions.insert(m.positions.end(), {float((R + r * std::cos(v)) * std::cos(u)),
+                                             float((R + r * std::cos(v)) * std::sin(u)), float(r * std::sin(v))});
+    }
+  for (int j = 0; j < rings; ++j)
+    for (int i = 0; i < seg; ++i) {
+      const uint32_t a = j * seg + i, b = j * seg + (i + 1) % seg, c = ((j + 1) % rings) * seg + i,
+                     d = ((j + 1) % rings) * seg + (i + 1) % seg;
+      m.indices.insert(m.indices.end(), {a, c, d, a, d, b});
+    }
+  return m;
+}
+
 Counts count(const Mesh& m) {
   std::map<std::pair<uint32_t, uint32_t>, int> uses;
   for (size_t f = 0; f < m.face_count(); ++f)
@@ -136,7 +154,7 @@ Mesh remesh(const Mesh& input, uint32_t target, DensityMode mode, CvtStats* cvt 
   if (cvt) *cvt = stats;
   Mesh out;
   std::vector<uint32_t> cell;
-  const Status s = mesh_clusters(refined->mesh, label, target, &out, &cell, nullptr);
+  const Status s = mesh_clusters(refined->mesh, label, stats.clusters, &out, &cell, nullptr);
   EXPECT_TRUE(s.ok()) << s.to_string();
   return out;
 }
@@ -247,6 +265,36 @@ TEST(SurfaceCvtTest, SmallPartsAreKept) {
   size_t small = 0;  // vertices of the two small boxes (x > 0.2, beside the big one at 3)
   for (size_t v = 0; v < out.vertex_count(); ++v) small += out.positions[3 * v] < 0.5f;
   EXPECT_GE(small, 8u);
+}
+
+TEST(SurfaceCvtTest, ThinHandleKeepsItsGenus) {
+  // A torus whose tube is about three cells around at this target: cells
+  // that would wrap the tube are split, so the dual stays a closed torus.
+  const Mesh t = torus(1.0, 0.03, 12, 240);
+  CvtStats stats;
+  const Mesh out = remesh(t, 400, DensityMode::kUniform, &stats);
+  const Counts k = count(out);
+  EXPECT_EQ(k.boundary_edges, 0u);
+  EXPECT_EQ(k.non_manifold_edges, 0u);
+  std::set<std::pair<uint32_t, uint32_t>> edges;
+  for (size_t f = 0; f < out.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = out.indices[3 * f + c], b = out.indices[3 * f + (c + 1) % 3];
+      edges.insert({std::min(a, b), std::max(a, b)});
+    }
+  EXPECT_EQ(int64_t(out.vertex_count()) - int64_t(edges.size()) + int64_t(out.face_count()), 0);  // genus 1
+  EXPECT_EQ(stats.defective_cells, 0u);
+  EXPECT_NEAR(double(out.vertex_count()), 400.0, 8.0);  // splits made up for by merges: +-2%
+}
+
+TEST(SurfaceCvtTest, SmallWindowsSideBySideStayOpenAndApart) {
+  // Two windows of one grid cell each, one cell apart, on the +x side of a
+  // box remeshed coarsely: each keeps its own loop (a cell on both would
+  // join them, three cells on one could cap it).
+  const Mesh window = box(1, 1, 1, 16, [](int face, int i, int j) { return face == 1 && j == 8 && (i == 6 || i == 8); });
+  const Mesh w = remesh(window, 400, DensityMode::kUniform);
+  EXPECT_EQ(count(w).loops, 2u);
+  EXPECT_EQ(count(w).non_manifold_edges, 0u);
 }
 
 }  // namespace

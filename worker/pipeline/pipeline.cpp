@@ -425,6 +425,11 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
               note += "; " + std::to_string(result.cvt.parts_below_minimum) + " of " +
                       std::to_string(result.cvt.parts) + " parts got fewer than " +
                       std::to_string(cvt.min_per_part) + " vertices (target too small)";
+            if (result.cvt.cells_split > 0)
+              note += "; " + std::to_string(result.cvt.cells_split) + " cells split for topology, " +
+                      std::to_string(result.cvt.cells_merged) + " merged";
+            if (result.cvt.defective_cells > 0)
+              note += "; " + std::to_string(result.cvt.defective_cells) + " cells still non-manifold";
             return Status::Ok();
           },
           &note));
@@ -432,10 +437,10 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
           "meshing", cpu,
           [&]() -> Status {
             std::vector<uint32_t> cell;
-            VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, label, options.target_vertices, &result.mesh, &cell,
-                                              &result.cluster_mesh));
+            const uint32_t cells = result.cvt.clusters;
+            VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, label, cells, &result.mesh, &cell, &result.cluster_mesh));
             // Each output vertex: its cell's mean importance (area-weighted).
-            std::vector<double> sum(options.target_vertices, 0.0), weight(options.target_vertices, 0.0);
+            std::vector<double> sum(cells, 0.0), weight(cells, 0.0);
             const std::vector<double> area = vertex_areas(refined.mesh);
             for (size_t v = 0; v < label.size(); ++v)
               if (label[v] != UINT32_MAX) {

@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <set>
 #include <unordered_map>
 
@@ -225,10 +226,21 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
   st.cells = count;
 
   // Boundary edges of the refined surface (one face), and the cells on them.
-  std::unordered_map<uint64_t, int> edge_faces;
-  edge_faces.reserve(3 * nf);
-  for (size_t f = 0; f < nf; ++f)
-    for (int c = 0; c < 3; ++c) ++edge_faces[key2(surface.indices[3 * f + c], surface.indices[3 * f + (c + 1) % 3])];
+  // on_boundary[3 f + c]: face f's edge from corner c is a boundary edge.
+  std::vector<char> on_boundary(3 * nf, 0);
+  {
+    std::vector<std::pair<uint64_t, uint32_t>> edges(3 * nf);
+    for (size_t f = 0; f < nf; ++f)
+      for (int c = 0; c < 3; ++c)
+        edges[3 * f + c] = {key2(surface.indices[3 * f + c], surface.indices[3 * f + (c + 1) % 3]), uint32_t(3 * f + c)};
+    std::sort(edges.begin(), edges.end());
+    for (size_t i = 0; i < edges.size();) {
+      size_t j = i;
+      while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+      if (j - i == 1) on_boundary[edges[i].second] = 1;
+      i = j;
+    }
+  }
   std::vector<char> boundary_cell(count, 0);
 
   // Quadrics, centroids (area-weighted) and the faces touching each cell.
@@ -261,7 +273,7 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
       // An input boundary edge: a plane through it, across the surface, keeps
       // the vertex on the boundary line (weighted like a face: length^2).
       const uint32_t u = t[k], w = t[(k + 1) % 3];
-      if (edge_faces[key2(u, w)] == 1) {
+      if (on_boundary[3 * f + k]) {
         const Vector3d pu = eig(load3d(surface.positions.data(), u)), pw = eig(load3d(surface.positions.data(), w));
         const Vector3d e = pw - pu;
         const Vector3d across = e.cross(n).normalized();
@@ -275,9 +287,36 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
     }
   }
 
+  // An input boundary loop met by exactly three cells: their triangle would
+  // cap the hole (a small rim closes), so it is not made.
+  std::set<std::array<uint32_t, 3>> seen_triples;
+  {
+    std::vector<uint32_t> parent(nv);
+    std::iota(parent.begin(), parent.end(), 0u);
+    auto find = [&](uint32_t v) {
+      while (parent[v] != v) v = parent[v] = parent[parent[v]];
+      return v;
+    };
+    std::vector<char> on_loop(nv, 0);
+    for (size_t f = 0; f < nf; ++f)
+      for (int c = 0; c < 3; ++c)
+        if (on_boundary[3 * f + c]) {
+          const uint32_t u = surface.indices[3 * f + c], w = surface.indices[3 * f + (c + 1) % 3];
+          on_loop[u] = on_loop[w] = 1;
+          parent[find(u)] = find(w);
+        }
+    std::map<uint32_t, std::set<uint32_t>> cells_of_loop;
+    for (uint32_t v = 0; v < nv; ++v)
+      if (on_loop[v] && label[v] != UINT32_MAX) cells_of_loop[find(v)].insert(label[v]);
+    for (const auto& [root, cells] : cells_of_loop)
+      if (cells.size() == 3) {
+        auto it = cells.begin();
+        const uint32_t a = *it++, b = *it++, c = *it;
+        seen_triples.insert({a, b, c});  // as if made already
+      }
+  }
   // Dual triangles: one per cell triple (the first face's orientation).
   std::vector<std::array<uint32_t, 3>> tris;
-  std::set<std::array<uint32_t, 3>> seen_triples;
   for (size_t f = 0; f < nf; ++f) {
     const uint32_t* t = &surface.indices[3 * f];
     const uint32_t a = label[t[0]], b = label[t[1]], c = label[t[2]];

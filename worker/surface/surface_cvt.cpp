@@ -1,10 +1,12 @@
 #include "surface/surface_cvt.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 #include <queue>
 #include <string>
+#include <unordered_map>
 
 #include "core/rng.h"
 #include "core/vec3.h"
@@ -12,35 +14,47 @@
 namespace vpr {
 namespace {
 
-// Vertex adjacency in compressed rows, neighbours sorted.
+// Vertex adjacency in compressed rows, neighbours sorted; faces[i]: how
+// many faces the edge to neighbor[i] has (1: a boundary edge).
 struct Adjacency {
-  std::vector<uint32_t> offset, neighbor;
+  std::vector<uint32_t> offset, neighbor, faces;
   size_t degree(uint32_t v) const { return offset[v + 1] - offset[v]; }
   const uint32_t* begin(uint32_t v) const { return neighbor.data() + offset[v]; }
   const uint32_t* end(uint32_t v) const { return neighbor.data() + offset[v + 1]; }
   bool adjacent(uint32_t a, uint32_t b) const { return std::binary_search(begin(a), end(a), b); }
 };
 
+// Rows filled face by face, then each sorted and its repeats counted (no
+// global sort of all edges).
 Adjacency adjacency(const Mesh& mesh) {
-  const size_t nv = mesh.vertex_count();
-  std::vector<uint64_t> edges;
-  edges.reserve(6 * mesh.face_count());
-  for (size_t f = 0; f < mesh.face_count(); ++f)
+  const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
+  std::vector<uint32_t> start(nv + 1, 0);
+  for (size_t i = 0; i < 3 * nf; ++i) start[mesh.indices[i] + 1] += 2;
+  for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<uint32_t> raw(start[nv]), fill(start.begin(), start.end() - 1);
+  for (size_t f = 0; f < nf; ++f)
     for (int c = 0; c < 3; ++c) {
-      const uint64_t a = mesh.indices[3 * f + c], b = mesh.indices[3 * f + (c + 1) % 3];
-      edges.push_back(a << 32 | b);
-      edges.push_back(b << 32 | a);
+      const uint32_t a = mesh.indices[3 * f + c], b = mesh.indices[3 * f + (c + 1) % 3];
+      raw[fill[a]++] = b;
+      raw[fill[b]++] = a;
     }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   Adjacency adj;
   adj.offset.assign(nv + 1, 0);
-  adj.neighbor.resize(edges.size());
-  for (size_t i = 0; i < edges.size(); ++i) {
-    ++adj.offset[(edges[i] >> 32) + 1];
-    adj.neighbor[i] = uint32_t(edges[i]);
+  adj.neighbor.reserve(raw.size() / 2 + nv);
+  adj.faces.reserve(raw.size() / 2 + nv);
+  for (size_t v = 0; v < nv; ++v) {
+    uint32_t* row = raw.data() + start[v];
+    const size_t n = start[v + 1] - start[v];
+    std::sort(row, row + n);
+    for (size_t i = 0; i < n;) {
+      size_t j = i;
+      while (j < n && row[j] == row[i]) ++j;
+      adj.neighbor.push_back(row[i]);
+      adj.faces.push_back(uint32_t(j - i));
+      i = j;
+    }
+    adj.offset[v + 1] = uint32_t(adj.neighbor.size());
   }
-  for (size_t v = 0; v < nv; ++v) adj.offset[v + 1] += adj.offset[v];
   return adj;
 }
 
@@ -58,18 +72,21 @@ double total_energy(const std::vector<Cluster>& clusters, double constant) {
   return e;
 }
 
-// Whether v's neighbours in cluster `c` stay connected to each other without
-// v (through edges among v's neighbours): if not, taking v out of c could cut
-// c in two. A local test, conservative on a manifold.
-bool removable(const Adjacency& adj, const std::vector<uint32_t>& label, uint32_t v, uint32_t c) {
+// How many groups v's neighbours in cluster `c` form, joined by the edges
+// among v's neighbours (64 or more neighbours in c: reported as 2, which
+// forbids the move). Taking v out of c keeps c connected when this is 1;
+// putting v into c keeps c a disk (no ring closes around a hole or a limb)
+// when this is 1. A local test, conservative on a manifold: with both, a
+// move is a simple-point move of digital topology.
+size_t neighbour_groups(const Adjacency& adj, const std::vector<uint32_t>& label, uint32_t v, uint32_t c) {
   uint32_t ring[64];
   size_t n = 0;
   for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
     if (label[*w] == c) {
-      if (n == 64) return false;
+      if (n == 64) return 2;
       ring[n++] = *w;
     }
-  if (n <= 1) return n == 1;  // a lone element of c beside v keeps c whole; none: v is c's last element
+  if (n <= 1) return n;
   uint32_t parent[64];
   std::iota(parent, parent + n, 0u);
   auto find = [&](uint32_t x) {
@@ -86,7 +103,152 @@ bool removable(const Adjacency& adj, const std::vector<uint32_t>& label, uint32_
           --groups;
         }
       }
-  return groups == 1;
+  return groups;
+}
+
+// Boundary loops of the surface: per vertex, the loop of boundary edges
+// (edges with one face) it lies on, or UINT32_MAX; per loop, its vertices.
+void boundary_loops(const Adjacency& adj, std::vector<uint32_t>* loop_of, std::vector<std::vector<uint32_t>>* loops) {
+  const size_t nv = adj.offset.size() - 1;
+  auto on_boundary = [&](uint32_t v) {
+    for (uint32_t i = adj.offset[v]; i < adj.offset[v + 1]; ++i)
+      if (adj.faces[i] == 1) return true;
+    return false;
+  };
+  loop_of->assign(nv, UINT32_MAX);
+  loops->clear();
+  for (uint32_t s = 0; s < nv; ++s) {
+    if ((*loop_of)[s] != UINT32_MAX || !on_boundary(s)) continue;
+    const uint32_t id = uint32_t(loops->size());
+    loops->emplace_back();
+    std::vector<uint32_t> stack = {s};
+    (*loop_of)[s] = id;
+    while (!stack.empty()) {
+      const uint32_t v = stack.back();
+      stack.pop_back();
+      loops->back().push_back(v);
+      for (uint32_t i = adj.offset[v]; i < adj.offset[v + 1]; ++i)
+        if (adj.faces[i] == 1 && (*loop_of)[adj.neighbor[i]] == UINT32_MAX) {
+          (*loop_of)[adj.neighbor[i]] = id;
+          stack.push_back(adj.neighbor[i]);
+        }
+    }
+    std::sort(loops->back().begin(), loops->back().end());
+  }
+}
+
+// `k` vertices of a boundary loop spread along it: farthest-point picks by
+// hops over the loop's edges, from its lowest vertex.
+std::vector<uint32_t> spread_on_loop(const Adjacency& adj, const std::vector<uint32_t>& loop_of,
+                                     const std::vector<uint32_t>& loop, size_t k) {
+  std::vector<uint32_t> picks;
+  if (loop.empty()) return picks;
+  const uint32_t id = loop_of[loop[0]];
+  std::unordered_map<uint32_t, uint32_t> hops;  // to the nearest pick
+  for (uint32_t v : loop) hops[v] = UINT32_MAX;
+  uint32_t next = loop[0];
+  while (picks.size() < std::min(k, loop.size())) {
+    picks.push_back(next);
+    std::vector<uint32_t> frontier = {next};
+    hops[next] = 0;
+    for (uint32_t d = 1; !frontier.empty(); ++d) {
+      std::vector<uint32_t> more;
+      for (uint32_t v : frontier)
+        for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
+          if (loop_of[*w] == id && hops[*w] > d) {
+            hops[*w] = d;
+            more.push_back(*w);
+          }
+      frontier = std::move(more);
+    }
+    uint32_t best = 0;
+    for (uint32_t v : loop)  // loop is sorted: ties go to the lowest vertex
+      if (hops[v] != UINT32_MAX && hops[v] > best) best = hops[v], next = v;
+    if (best == 0) break;
+  }
+  return picks;
+}
+
+// Cells whose dual vertex would not be a manifold vertex: the dual
+// triangles are the cell triples of faces with three cells (as in
+// cluster_mesh.cpp); a cell is defective when its link (the edges opposite
+// it in its triangles) is not one path or cycle, or when it shares an edge
+// with a cell that more than two triangles use. Sorted, each once.
+std::vector<uint32_t> defective_cells(const Mesh& mesh, const std::vector<uint32_t>& label, uint32_t count) {
+  std::vector<std::array<uint32_t, 3>> tris;
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    std::array<uint32_t, 3> t = {label[mesh.indices[3 * f]], label[mesh.indices[3 * f + 1]], label[mesh.indices[3 * f + 2]]};
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || t[0] == UINT32_MAX || t[1] == UINT32_MAX || t[2] == UINT32_MAX)
+      continue;
+    std::sort(t.begin(), t.end());
+    tris.push_back(t);
+  }
+  std::sort(tris.begin(), tris.end());
+  tris.erase(std::unique(tris.begin(), tris.end()), tris.end());
+  std::vector<char> bad(count, 0);
+  // Edges of more than two triangles.
+  std::vector<uint64_t> edges;
+  edges.reserve(3 * tris.size());
+  for (const auto& t : tris) {
+    edges.push_back(uint64_t(t[0]) << 32 | t[1]);
+    edges.push_back(uint64_t(t[1]) << 32 | t[2]);
+    edges.push_back(uint64_t(t[0]) << 32 | t[2]);
+  }
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i > 2) bad[edges[i] >> 32] = bad[uint32_t(edges[i])] = 1;
+    i = j;
+  }
+  // Links: (cell, u, w) for each triangle corner.
+  std::vector<std::array<uint32_t, 3>> link;
+  link.reserve(3 * tris.size());
+  for (const auto& t : tris) {
+    link.push_back({t[0], t[1], t[2]});
+    link.push_back({t[1], t[0], t[2]});
+    link.push_back({t[2], t[0], t[1]});
+  }
+  std::sort(link.begin(), link.end());
+  std::vector<uint32_t> ends, parent;
+  for (size_t i = 0; i < link.size();) {
+    size_t j = i;
+    while (j < link.size() && link[j][0] == link[i][0]) ++j;
+    const uint32_t cell = link[i][0];
+    ends.clear();
+    for (size_t k = i; k < j; ++k) ends.insert(ends.end(), {link[k][1], link[k][2]});
+    std::sort(ends.begin(), ends.end());
+    bool ok = true;
+    for (size_t a = 0; a < ends.size() && ok;) {  // degree at most 2
+      size_t b = a;
+      while (b < ends.size() && ends[b] == ends[a]) ++b;
+      ok = b - a <= 2;
+      a = b;
+    }
+    ends.erase(std::unique(ends.begin(), ends.end()), ends.end());
+    if (ok) {  // one component
+      parent.resize(ends.size());
+      std::iota(parent.begin(), parent.end(), 0u);
+      auto find = [&](uint32_t x) {
+        while (parent[x] != x) x = parent[x] = parent[parent[x]];
+        return x;
+      };
+      size_t groups = ends.size();
+      for (size_t k = i; k < j; ++k) {
+        const uint32_t a = uint32_t(std::lower_bound(ends.begin(), ends.end(), link[k][1]) - ends.begin());
+        const uint32_t b = uint32_t(std::lower_bound(ends.begin(), ends.end(), link[k][2]) - ends.begin());
+        const uint32_t ra = find(a), rb = find(b);
+        if (ra != rb) parent[ra] = rb, --groups;
+      }
+      ok = groups == 1;
+    }
+    if (!ok) bad[cell] = 1;
+    i = j;
+  }
+  std::vector<uint32_t> out;
+  for (uint32_t c = 0; c < count; ++c)
+    if (bad[c]) out.push_back(c);
+  return out;
 }
 
 }  // namespace
@@ -103,9 +265,10 @@ std::vector<double> vertex_areas(const Mesh& mesh) {
   return area;
 }
 
-Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass, uint32_t count, const CvtOptions& options,
+Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_t count, const CvtOptions& options,
                    std::vector<uint32_t>* label_out, CvtStats* stats) {
   const size_t nv = mesh.vertex_count();
+  std::vector<double> mass = mass_in;  // raised where cells are split for topology
   if (mass.size() != nv) return invalid_argument("surface CVT: one mass per vertex expected");
   if (count < 1) return invalid_argument("surface CVT: at least one cluster");
   const Adjacency adj = adjacency(mesh);
@@ -186,10 +349,25 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass, uint32_t c
     }
   }
 
-  // Seeds: per part, elements drawn in proportion to mass (Philox keyed by
-  // the seed: the same on every machine and thread count).
+  // Boundary loops: each gets min_per_loop seeds spread along it (so the
+  // dual keeps it open), taken from its part's quota.
+  std::vector<uint32_t> loop_of;
+  std::vector<std::vector<uint32_t>> loops;
+  boundary_loops(adj, &loop_of, &loops);
   std::vector<uint32_t> label(nv, UINT32_MAX);
   std::vector<uint32_t> seeds;
+  for (const auto& loop : loops) {
+    const uint32_t p = part[loop[0]];
+    const size_t k = std::min<size_t>(options.min_per_loop, quota[p]);
+    if (k < options.min_per_loop) continue;  // the part's quota cannot keep it open
+    for (uint32_t v : spread_on_loop(adj, loop_of, loop, k)) {
+      label[v] = uint32_t(seeds.size());
+      seeds.push_back(v);
+      --quota[p];
+    }
+  }
+  // The rest: per part, elements drawn in proportion to mass (Philox keyed
+  // by the seed: the same on every machine and thread count).
   for (size_t p = 0; p < parts; ++p) {
     const auto& el = part_elements[p];
     std::vector<double> cumulative(el.size());
@@ -234,6 +412,7 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass, uint32_t c
     }
   }
 
+  uint32_t clusters_now = count;
   std::vector<Cluster> clusters(count);
   double constant = 0;  // sum m |x|^2
   for (uint32_t v = 0; v < nv; ++v) {
@@ -246,8 +425,36 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass, uint32_t c
   }
   std::vector<double> energy = {total_energy(clusters, constant)};
 
+  // Elements per (cluster, loop), and clusters per loop: a cluster may not
+  // give up its last element on a loop that has only min_per_loop clusters.
+  std::unordered_map<uint64_t, uint32_t> on_loop;
+  std::vector<uint32_t> loop_clusters(loops.size(), 0);
+  auto loop_key = [](uint32_t cluster, uint32_t loop) { return uint64_t(cluster) << 32 | loop; };
+  // loops_of_cluster: how many loops each cluster meets (one at most, or two
+  // loops would join at its dual vertex).
+  std::vector<uint32_t> loops_of_cluster(count, 0);
+  auto loop_add = [&](uint32_t v, uint32_t cluster) {
+    if (loop_of[v] == UINT32_MAX) return;
+    if (on_loop[loop_key(cluster, loop_of[v])]++ == 0) ++loop_clusters[loop_of[v]], ++loops_of_cluster[cluster];
+  };
+  auto loop_remove = [&](uint32_t v, uint32_t cluster) {
+    if (loop_of[v] == UINT32_MAX) return;
+    if (--on_loop[loop_key(cluster, loop_of[v])] == 0) --loop_clusters[loop_of[v]], --loops_of_cluster[cluster];
+  };
+  for (uint32_t v = 0; v < nv; ++v)
+    if (label[v] != UINT32_MAX) loop_add(v, label[v]);
+  auto loop_keeps = [&](uint32_t v, uint32_t from, uint32_t to) {
+    const uint32_t l = loop_of[v];
+    if (l == UINT32_MAX) return true;
+    if (loops_of_cluster[to] > 0) {
+      const auto it = on_loop.find(loop_key(to, l));
+      if (it == on_loop.end() || it->second == 0) return false;
+    }  // `to` is on another loop
+    return loop_clusters[l] > options.min_per_loop || on_loop[loop_key(from, l)] > 1;
+  };
+
   // Sweeps: for every edge between two cells, the better of moving either
-  // end into the other cell, when it lowers E.
+  // end into the other cell, when it lowers E and keeps both cells disks.
   auto gain = [&](uint32_t v, uint32_t from, uint32_t to) {
     const Cluster& a = clusters[from];
     const Cluster& b = clusters[to];
@@ -256,6 +463,9 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass, uint32_t c
     const Vec3d sa = a.s - x[v] * m, sb = b.s + x[v] * m;
     const double after = -dot(sa, sa) / (a.m - m) - dot(sb, sb) / (b.m + m);
     return a.energy() + b.energy() - after;  // > 0: E falls
+  };
+  auto allowed = [&](uint32_t v, uint32_t from, uint32_t to) {
+    return neighbour_groups(adj, label, v, from) == 1 && neighbour_groups(adj, label, v, to) == 1 && loop_keeps(v, from, to);
   };
   auto move = [&](uint32_t v, uint32_t to) {
     Cluster& a = clusters[label[v]];
@@ -266,44 +476,263 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass, uint32_t c
     b.m += mass[v];
     b.s = b.s + x[v] * mass[v];
     ++b.size;
+    loop_remove(v, label[v]);
+    loop_add(v, to);
     label[v] = to;
   };
   int sweep = 0;
   bool converged = false;
   size_t moves = 0;
-  for (; sweep < options.max_sweeps; ++sweep) {
-    size_t moved = 0;
+  // Only pairs of cells one of which changed since the pair was last looked
+  // at can gain: a pair whose two cells did not change in the previous sweep
+  // (nor yet in this one) gave no move then and gives none now.
+  std::vector<char> active(count, 1), changed(count, 0);
+  auto optimize = [&]() {
+    converged = false;
+    active.assign(clusters_now, 1);
+    changed.assign(clusters_now, 0);
+    for (; sweep < options.max_sweeps; ++sweep) {
+      size_t moved = 0;
+      for (uint32_t v = 0; v < nv; ++v) {
+        if (label[v] == UINT32_MAX) continue;
+        for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
+          const uint32_t a = label[v], b = label[*w];
+          if (a == b || !(active[a] | active[b] | changed[a] | changed[b])) continue;
+          const double g_v = gain(v, a, b), g_w = gain(*w, b, a);
+          const double best = std::max(g_v, g_w);
+          if (!(best > 1e-18 * std::abs(energy.back()))) continue;
+          if (g_v >= g_w && allowed(v, a, b)) {
+            move(v, b);
+            changed[a] = changed[b] = 1;
+            ++moved;
+          } else if (g_w > g_v && allowed(*w, b, a)) {
+            move(*w, a);
+            changed[a] = changed[b] = 1;
+            ++moved;
+          }
+        }
+      }
+      moves += moved;
+      active.swap(changed);
+      std::fill(changed.begin(), changed.end(), 0);
+      energy.push_back(total_energy(clusters, constant));
+      const double previous = energy[energy.size() - 2], now = energy.back();
+      if (moved == 0 || previous - now <= options.tolerance * std::abs(previous)) {
+        converged = true;
+        ++sweep;
+        break;
+      }
+    }
+  };
+  optimize();
+
+  // Topology: the dual is a manifold where every cell's link (the cells
+  // around it, in the dual's triangles) is one path or cycle and no two
+  // cells share an edge of more than two dual triangles. A cell that breaks
+  // this (it wraps a thin part, or meets a neighbour twice) is cut in two
+  // along its farthest pair of elements, as many cells elsewhere are merged
+  // away, and the sweeps go on; up to max_split_fraction x count splits.
+  size_t merged = 0;
+  std::vector<Vec3d> vertex_normal(nv, Vec3d{0, 0, 0});  // unit, area-weighted
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    const uint32_t* t = &mesh.indices[3 * f];
+    const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+    for (int k = 0; k < 3; ++k) vertex_normal[t[k]] = vertex_normal[t[k]] + n;
+  }
+  for (Vec3d& n : vertex_normal)
+    if (norm(n) > 0) n = n * (1.0 / norm(n));
+  const uint32_t split_budget = uint32_t(std::ceil(options.max_split_fraction * count));
+  size_t splits = 0;
+  auto rebuild = [&]() {
+    clusters.assign(clusters_now, Cluster{});
+    on_loop.clear();
+    std::fill(loop_clusters.begin(), loop_clusters.end(), 0);
+    loops_of_cluster.assign(clusters_now, 0);
+    constant = 0;
     for (uint32_t v = 0; v < nv; ++v) {
       if (label[v] == UINT32_MAX) continue;
+      Cluster& c = clusters[label[v]];
+      c.m += mass[v];
+      c.s = c.s + x[v] * mass[v];
+      ++c.size;
+      constant += mass[v] * dot(x[v], x[v]);
+      loop_add(v, label[v]);
+    }
+  };
+  // Cells split, and their neighbours, are never merged away.
+  std::vector<char> guarded(clusters_now, 0);
+  // Splits add cells; to keep the count, as many others are merged into their
+  // neighbours: the flattest (their elements' normals agree best: far from
+  // thin parts and creases, where a merge costs least), each away from any
+  // split, from boundary loops and from each other, in parts with cells to
+  // spare.
+  auto merge = [&](uint32_t surplus) {
+    std::vector<Vec3d> normal_sum(clusters_now, Vec3d{0, 0, 0});  // sum m n per cell
+    std::vector<uint32_t> part_of(clusters_now, UINT32_MAX);
+    std::vector<char> on_a_loop(clusters_now, 0);
+    std::vector<uint64_t> pairs;
+    for (uint32_t v = 0; v < nv; ++v) {
+      const uint32_t a = label[v];
+      if (a == UINT32_MAX) continue;
+      normal_sum[a] = normal_sum[a] + vertex_normal[v] * mass[v];
+      part_of[a] = part[v];
+      on_a_loop[a] |= loop_of[v] != UINT32_MAX;
+      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
+        if (label[*w] != a && label[*w] != UINT32_MAX) pairs.push_back(uint64_t(a) << 32 | label[*w]);
+    }
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    std::vector<char> blocked(guarded.begin(), guarded.end());
+    for (uint64_t e : pairs)
+      if (guarded[e >> 32]) blocked[uint32_t(e)] = 1;
+    std::vector<uint32_t> per_part(parts, 0);
+    for (uint32_t c = 0; c < clusters_now; ++c)
+      if (part_of[c] != UINT32_MAX) ++per_part[part_of[c]];
+    std::vector<uint32_t> order(clusters_now);
+    std::iota(order.begin(), order.end(), 0u);
+    auto spread = [&](uint32_t c) { return clusters[c].m > 0 ? 1.0 - norm(normal_sum[c]) / clusters[c].m : 1.0; };
+    std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return spread(a) < spread(b); });
+    std::vector<char> removed(clusters_now, 0);
+    uint32_t taken = 0;
+    for (uint32_t c : order) {
+      if (taken == surplus) break;
+      if (blocked[c] || on_a_loop[c] || part_of[c] == UINT32_MAX || per_part[part_of[c]] <= 2 * options.min_per_part)
+        continue;
+      removed[c] = 1;
+      --per_part[part_of[c]];
+      ++taken;
+      auto first = std::lower_bound(pairs.begin(), pairs.end(), uint64_t(c) << 32);
+      for (auto it = first; it != pairs.end() && (*it >> 32) == c; ++it) blocked[uint32_t(*it)] = 1;
+    }
+    if (taken == 0) return;
+    // The removed cells' elements go to the nearest kept cell over the edges.
+    using Item = std::pair<double, uint32_t>;
+    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+    std::vector<double> dist(nv, INFINITY);
+    for (uint32_t v = 0; v < nv; ++v)
+      if (label[v] != UINT32_MAX && removed[label[v]])
+        for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
+          if (label[*w] != UINT32_MAX && !removed[label[*w]]) {
+            dist[*w] = 0;
+            queue.push({0.0, *w});
+          }
+    while (!queue.empty()) {
+      const auto [d, v] = queue.top();
+      queue.pop();
+      if (d > dist[v]) continue;
       for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
-        const uint32_t a = label[v], b = label[*w];
-        if (a == b) continue;
-        const double g_v = gain(v, a, b), g_w = gain(*w, b, a);
-        const double best = std::max(g_v, g_w);
-        if (!(best > 1e-18 * std::abs(energy.back()))) continue;
-        if (g_v >= g_w && removable(adj, label, v, a)) {
-          move(v, b);
-          ++moved;
-        } else if (g_w > g_v && removable(adj, label, *w, b)) {
-          move(*w, a);
-          ++moved;
+        if (label[*w] == UINT32_MAX || !removed[label[*w]]) continue;
+        const double nd = d + norm(x[*w] - x[v]);
+        if (nd < dist[*w]) {
+          dist[*w] = nd;
+          label[*w] = label[v];  // v's label is final: it was taken before *w's
+          queue.push({nd, *w});
         }
       }
     }
-    moves += moved;
-    energy.push_back(total_energy(clusters, constant));
-    const double previous = energy[energy.size() - 2], now = energy.back();
-    if (moved == 0 || previous - now <= options.tolerance * std::abs(previous)) {
-      converged = true;
-      ++sweep;
-      break;
+    // Ids close up; the cells' sums and loop counts are rebuilt.
+    std::vector<uint32_t> remap(clusters_now, UINT32_MAX);
+    uint32_t next = 0;
+    for (uint32_t c = 0; c < clusters_now; ++c)
+      if (!removed[c]) {
+        guarded[next] = guarded[c];
+        remap[c] = next++;
+      }
+    clusters_now = next;
+    guarded.resize(clusters_now);
+    for (uint32_t& l : label)
+      if (l != UINT32_MAX) l = remap[l];
+    rebuild();
+    merged += taken;
+  };
+  for (int round = 0; round < options.topology_rounds; ++round) {
+    std::vector<uint32_t> bad = defective_cells(mesh, label, clusters_now);
+    for (uint32_t c = 0; c < clusters_now; ++c)  // a cell on two loops would join them
+      if (loops_of_cluster[c] > 1) bad.push_back(c);
+    std::sort(bad.begin(), bad.end());
+    bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
+    if (bad.empty() || splits >= split_budget) {
+      if (round == 0 || clusters_now == count) break;
+      bad.clear();  // no split this round: the merges below bring the count back
     }
+    if (bad.size() > split_budget - splits) {
+      // The heaviest first: their defects span the most surface.
+      std::stable_sort(bad.begin(), bad.end(), [&](uint32_t a, uint32_t b) { return clusters[a].m > clusters[b].m; });
+      bad.resize(split_budget - splits);
+      std::sort(bad.begin(), bad.end());
+    }
+    std::vector<std::vector<uint32_t>> members(bad.size());
+    std::vector<uint32_t> slot(clusters_now, UINT32_MAX);
+    for (size_t i = 0; i < bad.size(); ++i) slot[bad[i]] = uint32_t(i);
+    for (uint32_t v = 0; v < nv; ++v)
+      if (label[v] != UINT32_MAX && slot[label[v]] != UINT32_MAX) members[slot[label[v]]].push_back(v);
+    for (size_t i = 0; i < bad.size(); ++i) {
+      const uint32_t c = bad[i];
+      const std::vector<uint32_t>& el = members[i];
+      if (el.size() < 2) continue;
+      const Vec3d centroid = clusters[c].s * (1.0 / clusters[c].m);
+      auto farthest = [&](const Vec3d& from) {
+        uint32_t best = el[0];
+        double best_d = -1;
+        for (uint32_t v : el)
+          if (norm2(x[v] - from) > best_d) best_d = norm2(x[v] - from), best = v;
+        return best;
+      };
+      const uint32_t p = farthest(centroid), q = farthest(x[p]);
+      // Dijkstra from p and q within the cell: q's side becomes the new cell.
+      const uint32_t fresh = clusters_now++;
+      clusters.emplace_back();
+      loops_of_cluster.push_back(0);
+      std::unordered_map<uint32_t, double> dist;
+      std::unordered_map<uint32_t, uint32_t> side;
+      for (uint32_t v : el) dist[v] = INFINITY;
+      using Item = std::pair<double, uint32_t>;
+      std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+      dist[p] = dist[q] = 0;
+      side[p] = c;
+      side[q] = fresh;
+      queue.push({0.0, p});
+      queue.push({0.0, q});
+      while (!queue.empty()) {
+        const auto [d, v] = queue.top();
+        queue.pop();
+        if (d > dist[v]) continue;
+        for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
+          if (label[*w] != c) continue;
+          const double nd = d + norm(x[*w] - x[v]);
+          if (nd < dist[*w]) {
+            dist[*w] = nd;
+            side[*w] = side[v];
+            queue.push({nd, *w});
+          }
+        }
+      }
+      for (uint32_t v : el)
+        if (side.count(v) && side[v] == fresh) move(v, fresh);
+    }
+    splits += bad.size();
+    // Where a cell had to be split the surface needs finer cells than the
+    // density asked for (a thin part, a narrow handle): its elements weigh
+    // more from now on, so the sweeps keep the cells there small.
+    for (const std::vector<uint32_t>& el : members)
+      for (uint32_t v : el) mass[v] *= options.split_mass_factor;
+    rebuild();
+    for (uint32_t c : bad) guarded[c] = 1;
+    guarded.resize(clusters_now, 1);
+    if (clusters_now > count) merge(clusters_now - count);
+    energy.push_back(total_energy(clusters, constant));
+    optimize();
   }
+
   if (stats) {
     stats->sweeps = sweep;
     stats->converged = converged;
     stats->energy = std::move(energy);
     stats->moves = moves;
+    stats->clusters = clusters_now;
+    stats->cells_split = splits;
+    stats->cells_merged = merged;
+    stats->defective_cells = defective_cells(mesh, label, clusters_now).size();
   }
   *label_out = std::move(label);
   return Status::Ok();

@@ -12,8 +12,12 @@
 // falls monotonically and the loop stops when a sweep lowers it by less than
 // `tolerance` (relative) or moves nothing. Clusters grow over the mesh's
 // edges, never through space, so the two sheets of a thin part, or two parts
-// that touch, are never one cell; a move that would cut a cell in two is not
-// taken.
+// that touch, are never one cell; a move that would cut a cell in two, or
+// close it into a ring, is not taken, so cells stay disks. Each boundary loop
+// keeps at least min_per_loop cells and no cell meets two loops. A cell whose
+// dual vertex would still be non-manifold (a thin part or handle) is split,
+// its elements weighted up so the cells there stay small, and as many flat
+// cells elsewhere are merged away; the sweeps then go on.
 #pragma once
 
 #include <cstdint>
@@ -29,6 +33,14 @@ struct CvtOptions {
   double tolerance = 1e-5;   // stop when a sweep lowers E by less than this fraction
   int max_sweeps = 300;
   uint32_t min_per_part = 4;  // clusters each connected part gets at least (a tetrahedron), target permitting
+  uint32_t min_per_loop = 3;  // clusters on each boundary loop at least (fewer and the dual closes it), quota permitting
+  // Cells whose dual vertex would be non-manifold are split, in up to this
+  // many rounds, up to max_split_fraction x count splits in all; as many
+  // cells away from them are merged into their neighbours, so the count
+  // stays (measured: boot.obj at 2,000 needs 6%).
+  int topology_rounds = 8;
+  double max_split_fraction = 0.1;
+  double split_mass_factor = 4;  // a split cell's elements weigh this much more (cells there half as wide)
 };
 
 struct CvtStats {
@@ -38,9 +50,14 @@ struct CvtStats {
   size_t moves = 0;
   size_t parts = 0;              // connected parts of the surface
   size_t parts_below_minimum = 0;  // parts that got fewer than min_per_part clusters (target too small)
+  uint32_t clusters = 0;          // clusters in the result: count, or more where merges fell short
+  size_t cells_split = 0;         // cells split for the dual's topology
+  size_t cells_merged = 0;        // cells merged away to make up for the splits
+  size_t defective_cells = 0;     // cells whose dual vertex is still non-manifold
 };
 
-// label: per element, its cluster in [0, count). mass: per element.
+// label: per element, its cluster in [0, stats->clusters), at least count
+// clusters (more where cells were split for topology). mass: per element.
 Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass, uint32_t count, const CvtOptions& options,
                    std::vector<uint32_t>* label, CvtStats* stats);
 
