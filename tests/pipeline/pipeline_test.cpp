@@ -5,6 +5,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -200,6 +201,70 @@ TEST(Pipeline, ResultDoesNotDependOnTheModelsUnitsOrPlacement) {
     EXPECT_TRUE(mesh_quality(r->mesh).closed) << "scale " << scale;
     EXPECT_NEAR(max_radius_error(r->mesh, scale, offset), reference_error, 0.003) << "scale " << scale;
   }
+}
+
+// The sphere (centre, radius) whose surface is nearest to p, and p's distance to its centre.
+std::pair<int, double> nearest_sphere(const float* p, const std::vector<std::array<double, 4>>& spheres) {
+  int best = 0;
+  double best_gap = 1e300, best_d = 0;
+  for (size_t i = 0; i < spheres.size(); ++i) {
+    const double dx = p[0] - spheres[i][0], dy = p[1] - spheres[i][1], dz = p[2] - spheres[i][2];
+    const double d = std::sqrt(dx * dx + dy * dy + dz * dz);
+    if (std::abs(d - spheres[i][3]) < best_gap) best_gap = std::abs(d - spheres[i][3]), best = int(i), best_d = d;
+  }
+  return {best, best_d};
+}
+
+std::vector<int> per_sphere_counts(const Mesh& m, const std::vector<std::array<double, 4>>& spheres) {
+  std::vector<int> count(spheres.size(), 0);
+  for (size_t v = 0; v < m.vertex_count(); ++v) ++count[nearest_sphere(&m.positions[3 * v], spheres).first];
+  return count;
+}
+
+// Issue 19, part 3: 100 spheres with radii spread over two orders of
+// magnitude (0.01 to 1, log-spaced) keep 100 closed parts, each on its own
+// sphere; the smallest get their equal share of the target
+// (CvtOptions::equal_part_share), not the few cells their area would buy.
+TEST(Pipeline, ManySpheresOfManySizesKeepEveryPartClosedAndInPlace) {
+  const Mesh unit = testing::icosphere(2);
+  constexpr int kParts = 100;
+  Mesh kit;
+  std::vector<std::array<double, 4>> spheres;  // centre, radius
+  for (int i = 0; i < kParts; ++i) {
+    const double r = std::pow(10.0, -2.0 + 2.0 * i / (kParts - 1));
+    const double c[3] = {2.5 * (i % 10), 2.5 * (i / 10), 0.0};
+    spheres.push_back({c[0], c[1], c[2], r});
+    const uint32_t base = uint32_t(kit.vertex_count());
+    for (size_t v = 0; v < unit.vertex_count(); ++v)
+      for (int a = 0; a < 3; ++a) kit.positions.push_back(float(c[a] + r * unit.positions[3 * v + a]));
+    for (uint32_t idx : unit.indices) kit.indices.push_back(base + idx);
+  }
+  // By mass alone the smallest spheres get fewer than 12 vertices each.
+  PipelineOptions by_mass = default_options(5000);
+  by_mass.cvt.equal_part_share = 0;
+  auto thin = run_pipeline(kit, by_mass);
+  ASSERT_TRUE(thin.ok()) << thin.status().to_string();
+  EXPECT_LT(per_sphere_counts(thin->mesh, spheres)[0], 12);
+
+  auto result = run_pipeline(kit, default_options(5000));
+  ASSERT_TRUE(result.ok()) << result.status().to_string();
+  const Mesh& out = result->mesh;
+  const MeshQuality q = mesh_quality(out);
+  EXPECT_EQ(q.components, size_t(kParts));
+  EXPECT_TRUE(q.closed) << q.boundary_edges << " boundary edges";
+  EXPECT_EQ(q.non_manifold_edges, 0u);
+  EXPECT_NEAR(double(out.vertex_count()), 5000.0, 100.0);
+
+  // Every output vertex lies on the sphere nearest to it (between the
+  // icosphere's inscribed faces and its vertices: 0.9 r to 1.0 r), and every
+  // sphere gets enough vertices for a closed polyhedron that is not flat.
+  for (size_t v = 0; v < out.vertex_count(); ++v) {
+    const auto [best, d] = nearest_sphere(&out.positions[3 * v], spheres);
+    ASSERT_GE(d, 0.9 * spheres[best][3]) << "vertex " << v << " inside sphere " << best;
+    ASSERT_LE(d, 1.0 * spheres[best][3] + 1e-5) << "vertex " << v << " outside sphere " << best;
+  }
+  const std::vector<int> per_sphere = per_sphere_counts(out, spheres);
+  for (int i = 0; i < kParts; ++i) EXPECT_GE(per_sphere[i], 12) << "sphere " << i << " (radius " << spheres[i][3] << ")";
 }
 
 TEST(Pipeline, StopsAtAStageBoundaryWhenCancelled) {

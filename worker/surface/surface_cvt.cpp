@@ -305,8 +305,13 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_
     return invalid_argument("surface CVT: " + std::to_string(count) + " clusters need at least as many elements, got " +
                             std::to_string(elements));
 
-  // Clusters per part: in proportion to its mass, at least min_per_part (or
-  // all its elements) where the target allows; largest remainders first.
+  // Clusters per part: a part's relative error depends on its own cluster
+  // count, not on its size (curvature scales as 1/size), so a share of the
+  // target in proportion to mass alone leaves small parts a few flat cells.
+  // Each part gets (1 - s) of the target by mass plus s shared equally
+  // (s = equal_part_share), at least min_per_part (or all its elements)
+  // where the target allows; largest remainders first. One part, or parts of
+  // equal mass, get exactly the mass share.
   const double total_mass = std::accumulate(part_mass.begin(), part_mass.end(), 0.0);
   std::vector<uint32_t> quota(parts, 0);
   {
@@ -320,7 +325,9 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_
     uint64_t assigned = 0;
     std::vector<std::pair<double, size_t>> remainder;
     for (size_t p = 0; p < parts; ++p) {
-      const double share = total_mass > 0 ? double(count) * part_mass[p] / total_mass : 0.0;
+      const double by_mass = total_mass > 0 ? part_mass[p] / total_mass : 1.0 / double(parts);
+      const double equal = options.equal_part_share;
+      const double share = double(count) * ((1.0 - equal) * by_mass + equal / double(parts));
       quota[p] = std::min<uint32_t>(uint32_t(share), uint32_t(part_elements[p].size()));
       if (minimum_fits) quota[p] = std::max(quota[p], floor_of[p]);
       assigned += quota[p];

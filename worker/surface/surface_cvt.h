@@ -33,6 +33,10 @@ struct CvtOptions {
   double tolerance = 1e-5;   // stop when a sweep lowers E by less than this fraction
   int max_sweeps = 300;
   uint32_t min_per_part = 4;  // clusters each connected part gets at least (a tetrahedron), target permitting
+  // Share of the target split equally between connected parts, the rest by
+  // mass: every part gets at least count * equal_part_share / parts clusters
+  // whatever its size, so small parts keep their shape (docs/pipeline.md).
+  double equal_part_share = 0.25;
   uint32_t min_per_loop = 3;  // clusters on each boundary loop at least (fewer and the dual closes it), quota permitting
   // Cells whose dual vertex would be non-manifold are split, in up to this
   // many rounds, up to max_split_fraction x count splits in all; as many
