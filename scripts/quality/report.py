@@ -125,24 +125,30 @@ def main():
          "count reached is in each table). `time` is one run's wall time on a loaded 2-core machine, not a "
          "benchmark.", ""]
 
-    # Per-method means over the cases every listed method finished.
-    common = [c for c in cases if all(ok(c, m) for m in methods)]
-    L += [f"### Means per method ({len(common)} cases where every method finished)", "",
-          "| method | SSIM | FLIP | mean Hausdorff (% diag) | angles < 30° | smallest angle | vertices off target (worst) | runs with something broken | failed runs |",
-          "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    # Per-method means over the cases where both that method and ours finished,
+    # with ours on the same cases beside them: a run cut short compares like with like.
+    L += ["### Means per method", "",
+          f"Each row: the mean over the cases where that method and `{OURS}` both finished, and `{OURS}` on "
+          "those same cases in the last two columns.", "",
+          "| method | cases | SSIM | FLIP | mean Hausdorff (% diag) | angles < 30° | smallest angle | vertices off target (worst) | runs with something broken | failed runs | ours SSIM, same cases | ours FLIP, same cases |",
+          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     summary = {}
     for m in methods:
-        rs = [by[c][m] for c in common]
+        same = [c for c in cases if ok(c, m) and ok(c, OURS)]
+        rs = [by[c][m] for c in same]
         allr = [by[c][m] for c in cases if ok(c, m)]
         failed = sum(1 for c in cases if m in by[c] and not by[c][m].get("ok"))
         s = {k: mean(r[k] for r in rs) for k in ("ssim_mean", "flip_mean", "hausdorff_mean", "share_angles_below_30")}
+        s["cases"] = len(same)
         s["min_angle"] = min((r["min_angle_deg"] for r in allr), default=float("nan"))
         s["off"] = max((abs(r["vertices"] / r["target"] - 1) for r in allr), default=float("nan"))
         s["broken"] = sum(1 for r in allr if broken(r))
+        s["ours_ssim"] = mean(by[c][OURS]["ssim_mean"] for c in same)
+        s["ours_flip"] = mean(by[c][OURS]["flip_mean"] for c in same)
         summary[m] = s
-        L.append(f"| {LABEL[m]} | {s['ssim_mean']:.4f} | {s['flip_mean']:.4f} | {100 * s['hausdorff_mean']:.4f} | "
+        L.append(f"| {LABEL[m]} | {len(same)} | {s['ssim_mean']:.4f} | {s['flip_mean']:.4f} | {100 * s['hausdorff_mean']:.4f} | "
                  f"{pct(s['share_angles_below_30'])} | {s['min_angle']:.1f}° | {pct(s['off'], 1)} | "
-                 f"{s['broken']}/{len(allr)} | {failed} |")
+                 f"{s['broken']}/{len(allr)} | {failed} | {s['ours_ssim']:.4f} | {s['ours_flip']:.4f} |")
     L.append("")
 
     # Goal checks (issue 21, "Goals, measured side by side").
@@ -187,6 +193,12 @@ def main():
                          + (f" (MeshLab {by['horse-5000']['meshlab-adaptive']['flip_mean']:.4f}, QEM "
                             f"{by['horse-5000'][QEM]['flip_mean']:.4f})" if ok("horse-5000", "meshlab-adaptive")
                             and ok("horse-5000", QEM) else "") + ".")
+            if ok("horse-5000", QEM):
+                # The issue measured QEM at 0.0102 with its own renderer; FLIP's scale follows the renderer.
+                q = by["horse-5000"][QEM]["flip_mean"]
+                goals.append(f"  On this renderer's scale (the issue's 0.0125 is 1.23× the 0.0102 it measured for QEM; "
+                             f"QEM here {q:.4f}, so ≤ {1.2255 * q:.4f}): {'**met**' if f <= 1.2255 * q else '**missed**'}, "
+                             f"ours {f / q:.2f}× QEM's.")
 
         def haus_peers(c):
             peers = [m for m in WELL_SHAPED if ok(c, m)]
