@@ -11,7 +11,7 @@ For each case (model, target) and method, one unit of work:
      FLIP (flip-evaluator, LDR, 67 ppd) between the same reference and candidate
      PNGs, mean over the 14 views, whole images;
   3. write RUNS/<model>-<target>/<method>.json (the resume point: a unit whose
-     JSON exists is skipped) and keep two views of the candidate for the
+     JSON says ok is skipped; a failed one is run again) and keep two views of the candidate for the
      contact sheet.
 Every mesh is rendered by the same renderer (vpremesh's), so every method is
 judged on the same pictures.
@@ -95,8 +95,8 @@ def unit(args, model, target, method):
     name = model.rsplit(".", 1)[0]
     case = f"{name}-{target}"
     result_path = os.path.join(args.runs, case, method + ".json")
-    if os.path.exists(result_path):
-        return result_path, "kept"
+    if os.path.exists(result_path) and json.load(open(result_path)).get("ok"):
+        return result_path, "kept"  # a failed run is tried again
     work = os.path.join(args.work, case, method)
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
