@@ -13,6 +13,7 @@
 #   CASES="horse.ply 5000
 #   fandisk.obj 3000" METHODS="ours-perception meshlab-adaptive" scripts/quality.sh
 #   JOBS=2 (runs at a time)  FRESH=1 (drop earlier runs first)  DOC= (leave docs/quality.md alone)
+#   ANY_COMMIT=1 (keep earlier runs even where the code has changed since)
 # Methods: ours-perception ours-curvature ours-uniform ours-paper meshlab-adaptive
 #          openmesh-qem cgal-isotropic meshoptimizer
 # pymeshlab, flip-evaluator, numpy and pillow come from a virtual environment
@@ -41,14 +42,17 @@ if [ ! -x "$VENV/bin/python" ] || ! "$VENV/bin/python" -c 'import pymeshlab, fli
 fi
 PY="$VENV/bin/python"
 
-COMMIT=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
-git diff --quiet HEAD -- worker client 2>/dev/null || COMMIT="$COMMIT+local-changes"
+# What is measured: the last commit that changed the code vpremesh is built from
+# (docs and scripts do not count). Earlier runs of other code are measured again.
+CODE="worker client proto server cmake CMakeLists.txt"
+COMMIT=$(git log -1 --format=%h HEAD -- $CODE 2>/dev/null || echo unknown)
+git diff --quiet HEAD -- $CODE 2>/dev/null || COMMIT="$COMMIT+local-changes"
 [ "${FRESH:-0}" = 1 ] && rm -rf "$OUT/runs" "$WORK"
 mkdir -p "$OUT/runs" "$WORK"
 
 start=$(date +%s)
 "$PY" scripts/quality/referee.py --bin "$BIN" --models "$M" --cases "$CASES" --methods "$METHODS" \
-  --runs "$OUT/runs" --work "$WORK" --jobs "$JOBS" --commit "$COMMIT"
+  --runs "$OUT/runs" --work "$WORK" --jobs "$JOBS" --commit "$COMMIT" ${ANY_COMMIT:+--any-commit}
 echo "quality.sh: runs took $(($(date +%s) - start)) s" >&2
 "$PY" scripts/quality/report.py --runs "$OUT/runs" --out "$OUT" ${DOC:+--doc "$DOC"} \
   --note "Machine: $(nproc) cores, $(uname -m); runs $JOBS at a time."

@@ -11,7 +11,7 @@ For each case (model, target) and method, one unit of work:
      FLIP (flip-evaluator, LDR, 67 ppd) between the same reference and candidate
      PNGs, mean over the 14 views, whole images;
   3. write RUNS/<model>-<target>/<method>.json (the resume point: a unit whose
-     JSON says ok is skipped; a failed one is run again) and keep two views of the candidate for the
+     JSON says ok, of the same commit, is skipped; a failed one is run again) and keep two views of the candidate for the
      contact sheet.
 Every mesh is rendered by the same renderer (vpremesh's), so every method is
 judged on the same pictures.
@@ -95,8 +95,11 @@ def unit(args, model, target, method):
     name = model.rsplit(".", 1)[0]
     case = f"{name}-{target}"
     result_path = os.path.join(args.runs, case, method + ".json")
-    if os.path.exists(result_path) and json.load(open(result_path)).get("ok"):
-        return result_path, "kept"  # a failed run is tried again
+    if os.path.exists(result_path):
+        kept = json.load(open(result_path))
+        # A failed run is tried again, and so is one of other code than what is measured now.
+        if kept.get("ok") and (kept.get("commit") == args.commit or args.any_commit):
+            return result_path, "kept"
     work = os.path.join(args.work, case, method)
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
@@ -156,6 +159,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--keep-meshes", action="store_true")
     ap.add_argument("--commit", default="unknown", help="what is measured, recorded in every run")
+    ap.add_argument("--any-commit", action="store_true", help="keep earlier runs of any commit")
     args = ap.parse_args()
     methods = args.methods.split()
     for m in methods:
