@@ -161,7 +161,7 @@ def main():
             (met if v[0] else missed).append((c, v[1]))
         return met, missed
 
-    def line(title, met, missed, limit=12):
+    def line(title, met, missed, limit=60):
         n = len(met) + len(missed)
         status = "**met**" if not missed and n else ("**missed**" if n else "not measured")
         s = f"- {title}: {status}, {len(met)}/{n} cases."
