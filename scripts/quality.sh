@@ -14,6 +14,7 @@
 #   fandisk.obj 3000" METHODS="ours-perception meshlab-adaptive" scripts/quality.sh
 #   JOBS=2 (runs at a time)  FRESH=1 (drop earlier runs first)  DOC= (leave docs/quality.md alone)
 #   ANY_COMMIT=1 (keep earlier runs even where the code has changed since)
+#   STEP_TIMEOUT=1800 (seconds a remeshing or an evaluation may take; past it the run is a failure)
 # Methods: ours-perception ours-curvature ours-uniform ours-paper meshlab-adaptive
 #          openmesh-qem cgal-isotropic meshoptimizer
 # pymeshlab, flip-evaluator, numpy and pillow come from a virtual environment
@@ -52,7 +53,8 @@ mkdir -p "$OUT/runs" "$WORK"
 
 start=$(date +%s)
 "$PY" scripts/quality/referee.py --bin "$BIN" --models "$M" --cases "$CASES" --methods "$METHODS" \
-  --runs "$OUT/runs" --work "$WORK" --jobs "$JOBS" --commit "$COMMIT" ${ANY_COMMIT:+--any-commit}
+  --runs "$OUT/runs" --work "$WORK" --jobs "$JOBS" --commit "$COMMIT" ${ANY_COMMIT:+--any-commit} \
+  --timeout "${STEP_TIMEOUT:-1800}"
 echo "quality.sh: runs took $(($(date +%s) - start)) s" >&2
 "$PY" scripts/quality/report.py --runs "$OUT/runs" --out "$OUT" ${DOC:+--doc "$DOC"} \
   --note "Machine: $(nproc) cores, $(uname -m); runs $JOBS at a time."

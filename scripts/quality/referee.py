@@ -45,11 +45,14 @@ def parse_cases(text):
     return cases
 
 
-def run(cmd, log):
+def run(cmd, log, timeout):
     with open(log, "a") as err:
         err.write("$ " + " ".join(cmd) + "\n")
         err.flush()
-        p = subprocess.run(["nice", "-n", "15"] + cmd, stdout=subprocess.PIPE, stderr=err, text=True)
+        try:
+            p = subprocess.run(["nice", "-n", "15"] + cmd, stdout=subprocess.PIPE, stderr=err, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            raise RuntimeError(f"over {timeout:.0f} s: {' '.join(cmd[:3])}")
     if p.returncode != 0:
         raise RuntimeError(f"exit {p.returncode}: {' '.join(cmd[:3])} (see {log})")
     return p.stdout
@@ -77,13 +80,13 @@ def flip_mean(reference, candidate, margin=32):
 def remesh(args, model_path, target, method, mesh, log):
     if method.startswith("ours-"):
         r = json.loads(run([args.bin, "local", model_path, "-o", mesh, "-n", str(target),
-                            "--density", method[5:], "--json"], log))
+                            "--density", method[5:], "--json"], log, args.timeout))
         return {"time_ms": r.get("total_ms", 0), "note": ""}
     if method == "meshlab-adaptive":
-        r = json.loads(run([sys.executable, os.path.join(HERE, "meshlab_remesh.py"), model_path, str(target), mesh], log))
+        r = json.loads(run([sys.executable, os.path.join(HERE, "meshlab_remesh.py"), model_path, str(target), mesh], log, args.timeout))
         return {"time_ms": r["time_ms"], "note": r["note"], "search": r["tries"]}
     out = os.path.dirname(mesh)
-    r = json.loads(run([args.bin, "peers", model_path, "-n", str(target), "--out", out, "--only", method], log))
+    r = json.loads(run([args.bin, "peers", model_path, "-n", str(target), "--out", out, "--only", method], log, args.timeout))
     m = r["methods"][0]
     if not m["ok"]:
         raise RuntimeError(m["error"])
@@ -111,7 +114,7 @@ def unit(args, model, target, method):
     try:
         rec.update(remesh(args, model_path, target, method, mesh, log))
         views = os.path.join(work, "views")
-        e = json.loads(run([args.bin, "eval", model_path, mesh, "--json", "--views-dir", views], log))
+        e = json.loads(run([args.bin, "eval", model_path, mesh, "--json", "--views-dir", views], log, args.timeout))
         c, ref, h, v = e["candidate"], e["reference"], e["hausdorff"], e["visual"]
         flips = []
         for i in range(len(v["per_view"])):
@@ -160,6 +163,7 @@ def main():
     ap.add_argument("--keep-meshes", action="store_true")
     ap.add_argument("--commit", default="unknown", help="what is measured, recorded in every run")
     ap.add_argument("--any-commit", action="store_true", help="keep earlier runs of any commit")
+    ap.add_argument("--timeout", type=float, default=1800, help="seconds one step (remesh or eval) may take")
     args = ap.parse_args()
     methods = args.methods.split()
     for m in methods:
