@@ -7,7 +7,9 @@ searched: L0 from the area (an equilateral mesh of V vertices and 2V faces
 covers A = V sqrt(3)/2 L^2), then secant steps on log V(log L) (slope -2 until
 two tries give a measured one), switching to bisection of log L once the
 target is bracketed. Each try starts from the input. Stops within 2% of the
-target or after MAX_TRIES; the try closest to the target is written. Every
+target, after MAX_TRIES, or when two tries land on the same count (MeshLab
+keeps feature and boundary vertices, so on some inputs, beast's UV seams, the
+count stops falling); the try closest to the target is written. Every
 other parameter keeps MeshLab's default (10 iterations, features at 30°,
 surface distance check at 1%), adaptive=True.
 """
@@ -54,6 +56,8 @@ def main():
             ms.delete_current_mesh()
         if miss <= TOLERANCE:
             break
+        if len(tries) >= 2 and abs(tries[-1]["vertices"] - tries[-2]["vertices"]) <= 0.005 * target:
+            break  # saturated: features and boundaries keep the count where it is, whatever the length
         point = (math.log(length), math.log(max(n, 1)))
         if n > target:
             lo = point  # too many vertices: edges too short
