@@ -1,7 +1,11 @@
 // `vpremesh eval REFERENCE CANDIDATE`: geometric distance, visual similarity
 // (SSIM of renderings and line drawings from the same 14 cameras), triangle
-// quality and topology of a remeshed model against its reference.
+// quality and topology of a remeshed model against its reference. With
+// --views-dir, the gray renderings the SSIM compares are written as PNGs, so
+// that other image metrics (scripts/quality.sh runs NVIDIA's FLIP on them)
+// judge exactly the same pictures.
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -13,6 +17,7 @@
 #include "eval/visual_similarity.h"
 #include "exit_codes.h"
 #include "io/mesh_io.h"
+#include "io/png_io.h"
 
 namespace vpr::cli {
 namespace {
@@ -24,7 +29,24 @@ struct EvalArgs {
   bool visual = true;
   VisualSimilarityOptions visual_options;
   std::string renderer = "auto";
+  std::string views_dir;  // "": write no renderings
 };
+
+// DIR/reference-NN.png and DIR/candidate-NN.png for view NN (make_views'
+// order), the gray renderings of both meshes.
+Status write_view_pngs(const std::string& dir, const std::vector<Snapshot>& reference,
+                       const std::vector<Snapshot>& candidate) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return internal_error("cannot create " + dir + ": " + ec.message());
+  for (size_t v = 0; v < reference.size(); ++v) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%02zu.png", v);
+    if (Status s = write_png(dir + "/reference-" + name, reference[v].gray); !s.ok()) return s;
+    if (Status s = write_png(dir + "/candidate-" + name, candidate[v].gray); !s.ok()) return s;
+  }
+  return Status::Ok();
+}
 
 nlohmann::json visual_json(const VisualSimilarity& v) {
   nlohmann::json per_view = nlohmann::json::array();
@@ -57,6 +79,10 @@ void print_quality(const char* label, const MeshQuality& q) {
 }
 
 int run_eval(const EvalArgs& a) {
+  if (!a.visual && !a.views_dir.empty()) {
+    std::fprintf(stderr, "vpremesh: error: --views-dir needs the renderings that --no-visual skips\n");
+    return kExitUsage;
+  }
   auto ref = read_mesh(a.reference);
   if (!ref.ok()) {
     std::fprintf(stderr, "vpremesh: error: %s: %s\n", a.reference.c_str(), ref.status().to_string().c_str());
@@ -79,12 +105,27 @@ int run_eval(const EvalArgs& a) {
       std::fprintf(stderr, "vpremesh: error: %s\n", kind.status().to_string().c_str());
       return exit_code_for(kind.status());
     }
-    auto v = visual_similarity(*ref, *cand, a.visual_options, *kind);
+    auto renderer = create_renderer(*kind);
+    if (!renderer.ok()) {
+      std::fprintf(stderr, "vpremesh: error: %s\n", renderer.status().to_string().c_str());
+      return exit_code_for(renderer.status());
+    }
+    auto reference = VisualReference::create(*ref, renderer->get(), a.visual_options);
+    StatusOr<VisualSimilarity> v = reference.ok() ? reference->compare(*cand) : StatusOr<VisualSimilarity>(reference.status());
     if (!v.ok()) {
       std::fprintf(stderr, "vpremesh: error: visual similarity: %s\n", v.status().to_string().c_str());
       return exit_code_for(v.status());
     }
     visual = *v;
+    if (!a.views_dir.empty()) {
+      std::vector<Snapshot> snaps;
+      Status s = (*renderer)->render(*cand, reference->views(), &snaps);
+      if (s.ok()) s = write_view_pngs(a.views_dir, reference->snapshots(), snaps);
+      if (!s.ok()) {
+        std::fprintf(stderr, "vpremesh: error: --views-dir: %s\n", s.to_string().c_str());
+        return exit_code_for(s);
+      }
+    }
   }
   const MeshQuality qr = mesh_quality(*ref), qc = mesh_quality(*cand);
   if (a.json) {
@@ -131,6 +172,8 @@ Command add_eval_command(CLI::App& app) {
   cmd->add_option("--views", args->visual_options.views, "SSIM views: 6 or 14")->capture_default_str();
   cmd->add_option("--resolution", args->visual_options.resolution, "SSIM image size in pixels")->capture_default_str();
   cmd->add_option("--renderer", args->renderer, "auto, egl or osmesa")->capture_default_str();
+  cmd->add_option("--views-dir", args->views_dir,
+                  "Write the gray renderings SSIM compares here: reference-NN.png and candidate-NN.png per view");
   return [args]() { return run_eval(*args); };
 }
 

@@ -1,97 +1,61 @@
 #!/usr/bin/env bash
-# Quality comparison (issue 5): `vpremesh compare` on every shared model at two
-# targets each, and our pipeline at 20 AWLOP iterations at the first target.
-# Writes docs/images/quality/<model>-<target>/{table.md,table.csv,report.json,
-# contact_sheet.png} and docs/images/quality/summary.md (every table, the goal
-# checks and the iteration table), which docs/quality.md quotes.
-#   scripts/quality.sh [VPREMESH]   (default: build/release/client/vpremesh)
+# The issue-21 referee (docs/quality.md, "Side by side at equal vertex counts"):
+# every shared model at the two targets of scripts/density-compare.sh, by our
+# pipeline at four densities (perception, curvature, uniform, paper), MeshLab's
+# adaptive isotropic remeshing (pymeshlab, edge length searched to within 2% of
+# the vertex count) and the peers of `vpremesh compare` (OpenMesh QEM, CGAL
+# isotropic, meshoptimizer); each result judged by `vpremesh eval` (SSIM over 14
+# views, Hausdorff, angles, topology) and by FLIP on the same renderings.
+# Writes $OUT/runs/<model>-<target>/<method>.json (one per run: the resume
+# point), $OUT/{summary.md,summary.json,results.json,results.csv}, a contact
+# sheet per case, and the referee part of docs/quality.md.
+#   scripts/quality.sh [VPREMESH]                   (default build/release/client/vpremesh)
+#   CASES="horse.ply 5000
+#   fandisk.obj 3000" METHODS="ours-perception meshlab-adaptive" scripts/quality.sh
+#   JOBS=2 (runs at a time)  FRESH=1 (drop earlier runs first)  DOC= (leave docs/quality.md alone)
+#   ANY_COMMIT=1 (keep earlier runs even where the code has changed since)
+#   STEP_TIMEOUT=1800 (seconds a remeshing or an evaluation may take; past it the run is a failure)
+# Methods: ours-perception ours-curvature ours-uniform ours-paper meshlab-adaptive
+#          openmesh-qem cgal-isotropic meshoptimizer
+# pymeshlab, flip-evaluator, numpy and pillow come from a virtual environment
+# made on first use ($VENV); the service never needs them.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${1:-build/release/client/vpremesh}
-M=../shared/models
-OUT=docs/images/quality
+M=${MODELS:-../shared/models}
+OUT=${OUT:-docs/images/quality/issue21}
+WORK=${WORK:-build/quality-work}
+VENV=${VENV:-build/quality-venv}
+JOBS=${JOBS:-2}
+DOC=${DOC-docs/quality.md}
+# Default cases: density-compare.sh's list, so that both scripts measure the same runs.
+DEFAULT_CASES=$(sed -n '/^CASES=\${CASES:-"/,/"}$/p' scripts/density-compare.sh | sed -e 's/^CASES=\${CASES:-"//' -e 's/"}$//')
+CASES=${CASES:-$DEFAULT_CASES}
+# In order of what the goals need first: a run cut short still has whole columns.
+METHODS=${METHODS:-"ours-perception meshlab-adaptive cgal-isotropic openmesh-qem ours-uniform ours-curvature ours-paper meshoptimizer"}
 [ -x "$BIN" ] || { echo "quality.sh: no vpremesh binary at $BIN (make build, or pass its path)" >&2; exit 2; }
-mkdir -p "$OUT"
-TMP=$(mktemp)  # the JSON report, moved into place once complete
-trap 'rm -f "$TMP"' EXIT
+[ -n "$CASES" ] || { echo "quality.sh: no cases (could not read density-compare.sh's list)" >&2; exit 2; }
 
-# model first-target second-target
-JOBS="igea.ply 10000 3000
-nefertiti.obj 10000 3000
-horse.ply 5000 2000
-bunny.obj 5000 2000
-beast.obj 5000 2000
-kitten.obj 5000 2000
-rocker-arm.obj 5000 2000
-fandisk.obj 3000 1000
-teapot.obj 2000 1000
-spot.obj 1000 2000
-suzanne.obj 300 200"
+if [ ! -x "$VENV/bin/python" ] || ! "$VENV/bin/python" -c 'import pymeshlab, flip_evaluator, numpy, PIL' 2>/dev/null; then
+  echo "quality.sh: making $VENV (pymeshlab flip-evaluator numpy pillow)" >&2
+  python3 -m venv "$VENV"
+  "$VENV/bin/pip" install -q pymeshlab flip-evaluator numpy pillow
+fi
+PY="$VENV/bin/python"
 
-while read -r model t1 t2; do
-  name=${model%.*}
-  for t in $t1 $t2; do
-    dir=$OUT/$name-$t
-    echo "== $model -> $t" >&2
-    "$BIN" compare "$M/$model" --target-vertices "$t" --out "$dir" --tile 200 --json > "$TMP"
-    mv "$TMP" "$dir/report.json"
-  done
-  echo "== $model -> $t1, AWLOP 20 iterations" >&2
-  "$BIN" compare "$M/$model" --target-vertices "$t1" --no-peers --awlop-iterations 20 --json \
-    > "$OUT/$name-$t1/awlop20.json"
-done <<< "$JOBS"
+# What is measured: the last commit that changed the code vpremesh is built from
+# (docs and scripts do not count). Earlier runs of other code are measured again.
+CODE="worker client proto server cmake CMakeLists.txt"
+COMMIT=$(git log -1 --format=%h HEAD -- $CODE 2>/dev/null || echo unknown)
+git diff --quiet HEAD -- $CODE 2>/dev/null || COMMIT="$COMMIT+local-changes"
+[ "${FRESH:-0}" = 1 ] && rm -rf "$OUT/runs" "$WORK"
+mkdir -p "$OUT/runs" "$WORK"
 
-python3 - "$OUT" <<'PY'
-import json, os, sys
-out = sys.argv[1]
-runs = sorted((d for d in os.listdir(out) if os.path.isfile(os.path.join(out, d, "report.json"))),
-              key=lambda d: (d.rsplit("-", 1)[0], -int(d.rsplit("-", 1)[1])))
-lines = ["# Quality comparison: every model, two targets", "",
-         "Generated by scripts/quality.sh. SSIM over the 14 views at 512 px; Hausdorff in % of the input's",
-         "bounding-box diagonal; contact sheets in each folder (columns: saliency field on the input,",
-         "input, ours, OpenMesh QEM, meshoptimizer, CGAL isotropic; rows: three views).", ""]
-goals = []
-iters = []
-for d in runs:
-    r = json.load(open(os.path.join(out, d, "report.json")))
-    by = {m["method"]: m for m in r["methods"]}
-    ours, qem = by["vpremesh (ours)"], by.get("OpenMesh QEM", {})
-    lines += [f"## {d}", "", f"{r['input_vertices']} input vertices, target {r['target_vertices']}.", "",
-              open(os.path.join(out, d, "table.md")).read(), f"![{d}]({d}/contact_sheet.png)", ""]
-    t = r["target_vertices"]
-    g = {"run": d,
-         "ssim": ours["ssim_mean"], "ssim_qem": qem.get("ssim_mean", float("nan")),
-         "ssim_best_peer": max((m["ssim_mean"] for m in r["methods"][1:] if m.get("ok")), default=float("nan")),
-         "line": ours["line_ssim_mean"], "line_qem": qem.get("line_ssim_mean", float("nan")),
-         "hmean": ours["hausdorff_mean"], "hmean_qem": qem.get("hausdorff_mean", float("nan")),
-         "a30": ours["share_angles_below_30"], "nm": ours["non_manifold_edges"],
-         "dv": ours["vertices"] / t - 1}
-    goals.append(g)
-    p = os.path.join(out, d, "awlop20.json")
-    if os.path.exists(p):
-        o20 = json.load(open(p))["methods"][0]
-        iters.append((d, ours, o20))
-
-lines += ["## Goals per run", "",
-          "| run | SSIM ours | SSIM QEM | SSIM ≥ QEM | line SSIM ours | line SSIM QEM | mean Hausdorff ours / QEM | ≤ 1.5× | angles < 30° | < 1% | nm edges | vertices off target |",
-          "|---|---:|---:|---|---:|---:|---:|---|---:|---|---:|---:|"]
-for g in goals:
-    ratio = g["hmean"] / g["hmean_qem"] if g["hmean_qem"] else float("nan")
-    lines.append(f"| {g['run']} | {g['ssim']:.4f} | {g['ssim_qem']:.4f} | {'yes' if g['ssim'] >= g['ssim_qem'] else 'no'} | "
-                 f"{g['line']:.4f} | {g['line_qem']:.4f} | {ratio:.2f} | {'yes' if ratio <= 1.5 else 'no'} | "
-                 f"{100*g['a30']:.2f}% | {'yes' if g['a30'] < 0.01 else 'no'} | {g['nm']} | {100*g['dv']:+.2f}% |")
-n = len(goals)
-mean = lambda k: sum(g[k] for g in goals) / n
-lines += ["", f"Means over {n} runs: SSIM ours {mean('ssim'):.4f}, QEM {mean('ssim_qem'):.4f}; "
-          f"line SSIM ours {mean('line'):.4f}, QEM {mean('line_qem'):.4f}.", ""]
-lines += ["## AWLOP iterations: 10 (default) against 20, first target of each model", "",
-          "| run | time ms 10 | time ms 20 | angles < 30° 10 | angles < 30° 20 | min angle 10 | min angle 20 | SSIM 10 | SSIM 20 | mean Hausdorff % 10 | mean Hausdorff % 20 |",
-          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-for d, a, b in iters:
-    lines.append(f"| {d} | {a['time_ms']:.0f} | {b['time_ms']:.0f} | {100*a['share_angles_below_30']:.2f}% | "
-                 f"{100*b['share_angles_below_30']:.2f}% | {a['min_angle_deg']:.2f} | {b['min_angle_deg']:.2f} | "
-                 f"{a['ssim_mean']:.4f} | {b['ssim_mean']:.4f} | {100*a['hausdorff_mean']:.4f} | {100*b['hausdorff_mean']:.4f} |")
-open(os.path.join(out, "summary.md"), "w").write("\n".join(lines) + "\n")
-print(os.path.join(out, "summary.md"))
-PY
-du -sh "$OUT" >&2
+start=$(date +%s)
+"$PY" scripts/quality/referee.py --bin "$BIN" --models "$M" --cases "$CASES" --methods "$METHODS" \
+  --runs "$OUT/runs" --work "$WORK" --jobs "$JOBS" --commit "$COMMIT" ${ANY_COMMIT:+--any-commit} \
+  --timeout "${STEP_TIMEOUT:-1800}"
+echo "quality.sh: runs took $(($(date +%s) - start)) s" >&2
+"$PY" scripts/quality/report.py --runs "$OUT/runs" --out "$OUT" ${DOC:+--doc "$DOC"} \
+  --note "Machine: $(nproc) cores, $(uname -m); runs $JOBS at a time."
+echo "$OUT/summary.md" >&2
