@@ -41,7 +41,8 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
                   "Attention field: coarse curvature scale, a fraction of the bounding-box diagonal")
       ->capture_default_str();
   cmd->add_option("--density", values.density,
-                  "Vertex density: perception (curvature x saliency, CVT on the surface), curvature, uniform, or "
+                  "Vertex density: curvature (CVT on the surface, denser where curved), perception (curvature x the attention "
+                  "field), uniform, or "
                   "paper (the paper's sampling, AWLOP and advancing front)")
       ->check(CLI::IsMember({"perception", "curvature", "uniform", "paper"}))
       ->capture_default_str();

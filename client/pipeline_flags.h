@@ -13,7 +13,7 @@ namespace vpr::cli {
 // Flags that need a conversion after parsing.
 struct PipelineFlagValues {
   std::string awlop_support = "target";
-  std::string density = "perception";
+  std::string density = "curvature";
   bool no_pca = false;
   std::vector<double> rotation;
 };

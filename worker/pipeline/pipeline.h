@@ -67,7 +67,10 @@ struct PipelineOptions {
   // paper's). The others: a CVT on the input surface with that density, then
   // its dual (surface_cvt.h, cluster_mesh.h); polygon soups without usable
   // connectivity take the paper's back half whatever is asked.
-  DensityMode density = DensityMode::kPerception;
+  // kCurvature by default: measured against kPerception and kUniform on every
+  // shared model (docs/quality.md, "What the guidance buys") it wins on SSIM and
+  // Hausdorff; kPerception becomes the default once it wins (docs/perception.md).
+  DensityMode density = DensityMode::kCurvature;
   CvtOptions cvt;  // its seed is sampling.seed
   // Surface elements per output vertex at the mean spacing (the refinement's
   // edge length is the target spacing over sqrt of this).

@@ -15,7 +15,7 @@
 namespace vpr {
 
 enum class DensityMode {
-  kPerception,  // curvature term x saliency term (the default)
+  kPerception,  // curvature term x attention term
   kCurvature,   // curvature term alone
   kUniform,     // D = 1
   kPaper,       // the paper's back half: saliency-driven sampling, AWLOP, advancing front
