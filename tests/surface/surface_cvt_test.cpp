@@ -2,6 +2,7 @@
 // Shapes are generated here; every property is counted from the returned
 // index buffer: boundary loops, non-manifold edges, closedness, distances.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cmath>
@@ -295,6 +296,45 @@ TEST(SurfaceCvtTest, SmallWindowsSideBySideStayOpenAndApart) {
   const Mesh w = remesh(window, 400, DensityMode::kUniform);
   EXPECT_EQ(count(w).loops, 2u);
   EXPECT_EQ(count(w).non_manifold_edges, 0u);
+}
+
+TEST(SurfaceCvtTest, SameCellsAndMeshOnAnyThreadCount) {
+  // The dual's vertex placement and edge sort run in parallel, and the CVT
+  // must stay free of thread-count effects as it gains parallel parts: the
+  // cells, every energy along the way and the mesh must not depend on how
+  // many threads made them. A torus with a thin tube also takes the split
+  // and merge rounds.
+  for (const Mesh& input : {box(1, 0.7, 0.4, 12), torus(1.0, 0.03, 12, 240)}) {
+    const std::vector<float> ones(input.vertex_count(), 1.0f);
+    auto refined = refine_surface(input, ones, 1, 0.02, 10'000'000);
+    ASSERT_TRUE(refined.ok());
+    const std::vector<double> mass = vertex_areas(refined->mesh);
+    std::vector<uint32_t> reference;
+    CvtStats first;
+    Mesh first_mesh;
+    for (int threads : {1, 2, 4}) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+      std::vector<uint32_t> label;
+      CvtStats stats;
+      ASSERT_TRUE(surface_cvt(refined->mesh, mass, 300, {}, &label, &stats).ok());
+      Mesh out;
+      std::vector<uint32_t> cell;
+      ASSERT_TRUE(mesh_clusters(refined->mesh, label, stats.clusters, &out, &cell, nullptr).ok());
+      if (threads == 1) {
+        reference = label;
+        first = stats;
+        first_mesh = out;
+        EXPECT_GT(stats.moves, 0u);
+        EXPECT_GT(out.face_count(), 0u);
+        continue;
+      }
+      EXPECT_EQ(label, reference) << threads << " threads";
+      EXPECT_EQ(stats.energy, first.energy) << threads << " threads";
+      EXPECT_EQ(stats.cells_split, first.cells_split) << threads << " threads";
+      EXPECT_EQ(out.positions, first_mesh.positions) << threads << " threads";
+      EXPECT_EQ(out.indices, first_mesh.indices) << threads << " threads";
+    }
+  }
 }
 
 }  // namespace

@@ -12,6 +12,10 @@
 #include <set>
 #include <unordered_map>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
 #include "core/vec3.h"
 
 namespace vpr {
@@ -233,7 +237,7 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
     for (size_t f = 0; f < nf; ++f)
       for (int c = 0; c < 3; ++c)
         edges[3 * f + c] = {key2(surface.indices[3 * f + c], surface.indices[3 * f + (c + 1) % 3]), uint32_t(3 * f + c)};
-    std::sort(edges.begin(), edges.end());
+    tbb::parallel_sort(edges.begin(), edges.end());  // (key, corner) pairs are distinct: one order on any thread count
     for (size_t i = 0; i < edges.size();) {
       size_t j = i;
       while (j < edges.size() && edges[j].first == edges[i].first) ++j;
@@ -329,37 +333,40 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
   st.holes_closed += close_dual_holes(&tris, [&](uint32_t cell) { return boundary_cell[cell] != 0; },
                                       &st.boundary_loops);
 
-  // Vertex positions: quadric minimum about the centroid, then onto the cell's triangles.
+  // Vertex positions: quadric minimum about the centroid, then onto the
+  // cell's triangles; each cell on its own, so in parallel.
   std::vector<float> points(3 * size_t(count), 0.0f);
-  for (uint32_t cell = 0; cell < count; ++cell) {
-    if (!(weight[cell] > 0)) continue;
-    const Vector3d c = centroid[cell] / weight[cell];
-    Eigen::SelfAdjointEigenSolver<Matrix3d> solver(quadric[cell].a);
-    const Vector3d lambda = solver.eigenvalues();
-    const Matrix3d u = solver.eigenvectors();
-    const Vector3d r = quadric[cell].b - quadric[cell].a * c;
-    Vector3d x = c;
-    const double top = lambda.cwiseAbs().maxCoeff();
-    // Directions the faces pin down: the dominant normal always; a second and
-    // a third only where the cell covers a crease or corner (an eigenvalue
-    // over 5% of the largest: a cell bent by 20 degrees gives about 1%).
-    for (int k = 0; k < 3; ++k)
-      if (std::abs(lambda[k]) > 0.05 * top) x += u.col(k) * (u.col(k).dot(r) / lambda[k]);
-    Vector3d best = c;
-    double best_d = INFINITY;
-    for (uint32_t f : cell_faces[cell]) {
-      const uint32_t* t = &surface.indices[3 * f];
-      const Vector3d q =
-          closest_on_triangle(x, eig(load3d(surface.positions.data(), t[0])),
-                              eig(load3d(surface.positions.data(), t[1])), eig(load3d(surface.positions.data(), t[2])));
-      const double d = (q - x).squaredNorm();
-      if (d < best_d) {
-        best_d = d;
-        best = q;
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 256), [&](const tbb::blocked_range<uint32_t>& range) {
+    for (uint32_t cell = range.begin(); cell != range.end(); ++cell) {
+      if (!(weight[cell] > 0)) continue;
+      const Vector3d c = centroid[cell] / weight[cell];
+      Eigen::SelfAdjointEigenSolver<Matrix3d> solver(quadric[cell].a);
+      const Vector3d lambda = solver.eigenvalues();
+      const Matrix3d u = solver.eigenvectors();
+      const Vector3d r = quadric[cell].b - quadric[cell].a * c;
+      Vector3d x = c;
+      const double top = lambda.cwiseAbs().maxCoeff();
+      // Directions the faces pin down: the dominant normal always; a second and
+      // a third only where the cell covers a crease or corner (an eigenvalue
+      // over 5% of the largest: a cell bent by 20 degrees gives about 1%).
+      for (int k = 0; k < 3; ++k)
+        if (std::abs(lambda[k]) > 0.05 * top) x += u.col(k) * (u.col(k).dot(r) / lambda[k]);
+      Vector3d best = c;
+      double best_d = INFINITY;
+      for (uint32_t f : cell_faces[cell]) {
+        const uint32_t* t = &surface.indices[3 * f];
+        const Vector3d q =
+            closest_on_triangle(x, eig(load3d(surface.positions.data(), t[0])),
+                                eig(load3d(surface.positions.data(), t[1])), eig(load3d(surface.positions.data(), t[2])));
+        const double d = (q - x).squaredNorm();
+        if (d < best_d) {
+          best_d = d;
+          best = q;
+        }
       }
+      for (int k = 0; k < 3; ++k) points[3 * cell + k] = float(best[k]);
     }
-    for (int k = 0; k < 3; ++k) points[3 * cell + k] = float(best[k]);
-  }
+  });
 
   if (tris.empty()) return invalid_argument("cluster mesh: the cells form no triangle");
   std::vector<uint32_t> flat;
