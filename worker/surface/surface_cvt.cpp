@@ -8,6 +8,8 @@
 #include <string>
 #include <unordered_map>
 
+#include <tbb/parallel_sort.h>
+
 #include "core/rng.h"
 #include "core/vec3.h"
 
@@ -173,7 +175,9 @@ std::vector<uint32_t> spread_on_loop(const Adjacency& adj, const std::vector<uin
 // triangles are the cell triples of faces with three cells (as in
 // cluster_mesh.cpp); a cell is defective when its link (the edges opposite
 // it in its triangles) is not one path or cycle, or when it shares an edge
-// with a cell that more than two triangles use. Sorted, each once.
+// with a cell that more than two triangles use. Sorted, each once. (Its
+// sorts are of plain values in their natural order, so tbb::parallel_sort
+// gives one result on any thread count.)
 std::vector<uint32_t> defective_cells(const Mesh& mesh, const std::vector<uint32_t>& label, uint32_t count) {
   std::vector<std::array<uint32_t, 3>> tris;
   for (size_t f = 0; f < mesh.face_count(); ++f) {
@@ -183,7 +187,7 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const std::vector<uint32
     std::sort(t.begin(), t.end());
     tris.push_back(t);
   }
-  std::sort(tris.begin(), tris.end());
+  tbb::parallel_sort(tris.begin(), tris.end());
   tris.erase(std::unique(tris.begin(), tris.end()), tris.end());
   std::vector<char> bad(count, 0);
   // Edges of more than two triangles.
@@ -194,7 +198,7 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const std::vector<uint32
     edges.push_back(uint64_t(t[1]) << 32 | t[2]);
     edges.push_back(uint64_t(t[0]) << 32 | t[2]);
   }
-  std::sort(edges.begin(), edges.end());
+  tbb::parallel_sort(edges.begin(), edges.end());
   for (size_t i = 0; i < edges.size();) {
     size_t j = i;
     while (j < edges.size() && edges[j] == edges[i]) ++j;
@@ -209,7 +213,7 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const std::vector<uint32
     link.push_back({t[1], t[0], t[2]});
     link.push_back({t[2], t[0], t[1]});
   }
-  std::sort(link.begin(), link.end());
+  tbb::parallel_sort(link.begin(), link.end());
   std::vector<uint32_t> ends, parent;
   for (size_t i = 0; i < link.size();) {
     size_t j = i;
@@ -587,7 +591,7 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_
       for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
         if (label[*w] != a && label[*w] != UINT32_MAX) pairs.push_back(uint64_t(a) << 32 | label[*w]);
     }
-    std::sort(pairs.begin(), pairs.end());
+    tbb::parallel_sort(pairs.begin(), pairs.end());
     pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
     std::vector<char> blocked(guarded.begin(), guarded.end());
     for (uint64_t e : pairs)
