@@ -1143,6 +1143,22 @@ TEST(FarFromOrigin, ReadInDoubleAndWrittenWithTheOriginAddedBack) {
   }
 }
 
+TEST(FarFromOrigin, LosslessDracoGivesBackTheSameFloatsAndFrame) {
+  for (double t : {0.0, 1e6}) {
+    auto mesh = parse(shifted_cube_obj(std::array<double, 3>{t, t, t}.data()), MeshFormat::kObj);
+    ASSERT_TRUE(mesh.ok());
+    for (int speed : {0, 10}) {
+      auto bytes = encode_draco(*mesh, nullptr, DracoOptions{0, 10, speed});
+      ASSERT_TRUE(bytes.ok()) << bytes.status().to_string();
+      auto back = parse_mesh(bytes->data(), bytes->size(), MeshFormat::kDraco);
+      ASSERT_TRUE(back.ok()) << back.status().to_string();
+      EXPECT_EQ(back->origin, mesh->origin);
+      EXPECT_EQ(back->scale, mesh->scale);
+      if (speed == 10) EXPECT_EQ(back->positions, mesh->positions) << t;  // sequential keeps the order
+    }
+  }
+}
+
 TEST(FarFromOrigin, NearModelsGetFloatFiles) {
   TempDir dir;
   auto mesh = parse(shifted_cube_obj(std::array<double, 3>{5, 5, 5}.data()), MeshFormat::kObj);

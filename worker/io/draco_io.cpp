@@ -25,6 +25,10 @@ namespace io_detail {
 namespace {
 
 constexpr const char* kSaliencyName = "saliency";
+// Metadata of a 64-bit position attribute: the frame the writer's mesh had
+// (origin x, y, z and scale, mesh.h), so that a reader gets back exactly its
+// floats; readers without it see ordinary absolute positions.
+constexpr const char* kFrameName = "vpremesh_frame";
 // Nesting of sub-metadata that the pre-scan accepts (the encoder writes 0).
 constexpr int kMaxMetadataDepth = 16;
 // Declared faces (and vertices) per byte of input that the pre-scan accepts.
@@ -260,6 +264,20 @@ StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& l
     for (int k = 0; k < 3; ++k) indices[3 * size_t(f) + k] = face[k].value();
   }
   Mesh mesh = mesh_from_absolute(positions, std::move(indices));
+  // The writer's frame, when it left one and it is usable: the same floats.
+  const draco::AttributeMetadata* position_metadata =
+      dm->GetAttributeMetadataByAttributeId(dm->GetNamedAttributeId(draco::GeometryAttribute::POSITION));
+  std::vector<double> frame;
+  if (position_metadata && position_metadata->GetEntryDoubleArray(kFrameName, &frame) && frame.size() == 4 &&
+      std::isfinite(frame[0]) && std::isfinite(frame[1]) && std::isfinite(frame[2]) && std::isfinite(frame[3]) &&
+      frame[3] > 0) {
+    for (size_t i = 0; i < positions.size(); ++i) {
+      const double x = (positions[i] - frame[i % 3]) / frame[3];
+      mesh.positions[i] = std::isnan(positions[i]) ? NAN : to_float(x);
+    }
+    mesh.origin = {frame[0], frame[1], frame[2]};
+    mesh.scale = frame[3];
+  }
 
   if (saliency) {
     saliency->clear();
@@ -302,8 +320,10 @@ StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* salie
   // cannot hold the model to 1e-6 of its size (far from zero), positions are
   // stored as 64-bit floats, snapped to the grid the quantizer would use in
   // the mesh's own frame, so both kinds of file move a vertex by at most half
-  // a quantization step.
-  const bool as_float = absolute_fits_float(mesh);
+  // a quantization step. Lossless files (position_bits 0) are 64-bit too: a
+  // reader gets back exactly the floats of the mesh's frame (mesh.h), so an
+  // upload runs on what `vpremesh local` runs on.
+  const bool as_float = options.position_bits > 0 && absolute_fits_float(mesh);
   draco::GeometryAttribute position;
   if (as_float) {
     position.Init(draco::GeometryAttribute::POSITION, nullptr, 3, draco::DT_FLOAT32, false, sizeof(float) * 3, 0);
@@ -319,6 +339,9 @@ StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* salie
     const std::vector<double> absolute = io_detail::quantized_absolute(mesh, options.position_bits);
     for (size_t i = 0; i < nv; ++i)
       dm.attribute(position_id)->SetAttributeValue(draco::AttributeValueIndex(uint32_t(i)), &absolute[3 * i]);
+    auto frame = std::make_unique<draco::AttributeMetadata>();
+    frame->AddEntryDoubleArray(io_detail::kFrameName, {mesh.origin[0], mesh.origin[1], mesh.origin[2], mesh.scale});
+    dm.AddAttributeMetadata(position_id, std::move(frame));
   }
   int saliency_id = -1;
   if (saliency) {
