@@ -268,9 +268,15 @@ StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& l
   const draco::AttributeMetadata* position_metadata =
       dm->GetAttributeMetadataByAttributeId(dm->GetNamedAttributeId(draco::GeometryAttribute::POSITION));
   std::vector<double> frame;
-  if (position_metadata && position_metadata->GetEntryDoubleArray(kFrameName, &frame) && frame.size() == 4 &&
-      std::isfinite(frame[0]) && std::isfinite(frame[1]) && std::isfinite(frame[2]) && std::isfinite(frame[3]) &&
-      frame[3] > 0) {
+  // Only a frame within 1e-6 of the one computed here (what a writer of the
+  // same mesh leaves): another would cost the floats their precision.
+  auto near_computed = [&](const std::vector<double>& f) {
+    if (f.size() != 4) return false;
+    for (int a = 0; a < 3; ++a)
+      if (!(std::fabs(f[size_t(a)] - mesh.origin[size_t(a)]) <= 1e-6 * mesh.scale)) return false;
+    return std::fabs(f[3] - mesh.scale) <= 1e-6 * mesh.scale;
+  };
+  if (position_metadata && position_metadata->GetEntryDoubleArray(kFrameName, &frame) && near_computed(frame)) {
     for (size_t i = 0; i < positions.size(); ++i) {
       const double x = (positions[i] - frame[i % 3]) / frame[3];
       mesh.positions[i] = std::isnan(positions[i]) ? NAN : to_float(x);
