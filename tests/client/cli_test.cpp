@@ -159,6 +159,11 @@ TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
     EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.all();
     EXPECT_NE(r.all().find(c.needle), std::string::npos) << c.args << "\n" << r.all();
   }
+  // The file is named once ("x.drc: Draco: ...", not "x.drc: x.drc: Draco: ...").
+  CliRun r = run_cli("local " + corrupt + " -o " + path("o.ply") + " -n 500");
+  const size_t first = r.err.find("corrupt.drc");
+  ASSERT_NE(first, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("corrupt.drc", first + 1), std::string::npos) << r.err;
 }
 
 TEST_F(CliTest, EvalOfAMeshAgainstItselfIsZero) {
