@@ -139,7 +139,10 @@ bool absolute_fits_float(const Mesh& mesh) {
     diag2 += (hi[a] - lo[a]) * (hi[a] - lo[a]);
     far = std::max({far, std::abs(lo[a]), std::abs(hi[a])});
   }
-  return far <= 8.0 * std::sqrt(diag2);
+  // Floats also need the model inside their normal range (a model 1e-40
+  // across would underflow to zeros).
+  const double diagonal = std::sqrt(diag2);
+  return far <= 8.0 * diagonal && diagonal >= 1e-30 && far <= 1e37;
 }
 
 size_t unreferenced_vertex_count(const Mesh& mesh) {
