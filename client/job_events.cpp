@@ -166,6 +166,7 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
   result.stages = o.stages;
   result.renderer = o.summary.renderer();
   result.saliency_points = o.summary.saliency_points();
+  result.ignored_vertices = o.summary.ignored_vertices();
   RunSummary summary;
   summary.input_vertices = o.summary.input_vertices();
   summary.input_faces = o.summary.input_faces();

@@ -51,7 +51,7 @@ int run_local(LocalArgs& a) {
   summary.target_vertices = o.target_vertices;
   auto start = std::chrono::steady_clock::now();
   auto mesh = read_mesh(a.input);
-  if (!mesh.ok()) return fail(Status(mesh.status().code(), a.input + ": " + mesh.status().message()));
+  if (!mesh.ok()) return fail(mesh.status());  // read_mesh names the file
   summary.read_ms = ms_since(start);
   summary.input_vertices = mesh->vertex_count();
   summary.input_faces = mesh->face_count();

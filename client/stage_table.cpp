@@ -48,6 +48,8 @@ std::string format_stage_table(const PipelineResult& result, const RunSummary& s
                 "input %zu vertices, %zu faces -> output %zu vertices, %zu faces%s; %zu saliency points\n",
                 s.input_vertices, s.input_faces, s.output_vertices, s.output_faces, target, result.saliency_points);
   out += footer;
+  if (result.ignored_vertices > 0)
+    out += std::to_string(result.ignored_vertices) + " input vertices no face uses were ignored\n";
   return out;
 }
 
@@ -77,6 +79,7 @@ nlohmann::json report_json(const PipelineResult& result, const RunSummary& s) {
       {"target_deviation_percent", deviation_percent(s)},
       {"renderer", result.renderer},
       {"saliency_points", result.saliency_points},
+      {"ignored_vertices", result.ignored_vertices},
       {"stages", stages},
       {"total_ms", total},
       {"back_half", result.back_half},

@@ -26,6 +26,12 @@ namespace v1 = ::vpremesh::v1;
 // byte-identical files.
 inline constexpr int kDefaultResultQuantizationBits = 14;
 
+// The payload switches that default to yes (remesh.proto: unset = yes).
+inline bool returns_mesh(const v1::JobSpec& spec) { return !spec.has_return_mesh() || spec.return_mesh(); }
+inline bool returns_saliency(const v1::JobSpec& spec) {
+  return !spec.has_return_saliency() || spec.return_saliency();
+}
+
 // What a job needs besides the mesh, in the pipeline's own terms.
 struct JobOptions {
   // renderer, shared_renderer, device, keep_going and debug_dir are the

@@ -198,7 +198,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
   if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
 
   uint64_t bytes_out = 0;
-  if (job.spec.return_mesh()) {
+  if (returns_mesh(job.spec)) {
     // The same encoder settings as `vpremesh local -o out.drc` (saliency as
     // the generic attribute "saliency"), so both give the same file.
     step("encode");
@@ -220,7 +220,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
     bytes_out += bytes.size();
   }
   step("results");
-  if (job.spec.return_saliency())
+  if (returns_saliency(job.spec))
     bytes_out += publish_floats(queue, id, result.saliency, [](v1::JobEvent* e) { return e->mutable_saliency(); });
   if (job.spec.return_saliency_points())
     bytes_out += publish_floats(queue, id, result.saliency_point_positions,
@@ -234,6 +234,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
   summary.set_output_vertices(uint32_t(result.mesh.vertex_count()));
   summary.set_output_faces(uint32_t(result.mesh.face_count()));
   summary.set_saliency_points(result.saliency_points);
+  summary.set_ignored_vertices(uint32_t(result.ignored_vertices));
   summary.set_queue_ms(job.queue_ms);
   summary.set_run_ms(ms_since(run_start));
   summary.set_total_ms(job.queue_ms + summary.run_ms());

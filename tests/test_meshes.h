@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <map>
 #include <tuple>
 #include <utility>
@@ -59,6 +61,41 @@ inline Mesh flipped_soup(const Mesh& mesh) {
     }
   }
   return soup;
+}
+
+// A bumpy sphere (features for the saliency stages) on a 2^-20 grid, as OBJ
+// text moved by `shift` and scaled by `scale` about zero; `strays` unused
+// vertices in a cube beside it, half before and half after the used ones.
+inline std::string bumpy_sphere_obj(double scale, double shift, int strays) {
+  Mesh sphere = icosphere(4);
+  std::string text;
+  char line[160];
+  auto vertex = [&](const double p[3]) {
+    std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", p[0] * scale + shift, p[1] * scale + shift,
+                  p[2] * scale + shift);
+    text += line;
+  };
+  for (int i = 0; i < strays / 2; ++i) {
+    const double p[3] = {2.0 + 0.01 * i, 0.5, -0.5};
+    vertex(p);
+  }
+  for (size_t v = 0; v < sphere.vertex_count(); ++v) {
+    const float* q = &sphere.positions[3 * v];
+    const double bump = 1 + 0.15 * std::sin(3 * std::atan2(q[1], q[0])) * std::cos(2 * std::acos(q[2]));
+    double p[3];
+    for (int a = 0; a < 3; ++a) p[a] = std::round(q[a] * bump * 1048576.0) / 1048576.0;
+    vertex(p);
+  }
+  for (int i = strays / 2; i < strays; ++i) {
+    const double p[3] = {-2.0, 0.01 * i, 1.5};
+    vertex(p);
+  }
+  for (size_t f = 0; f < sphere.face_count(); ++f) {
+    std::snprintf(line, sizeof line, "f %u %u %u\n", sphere.indices[3 * f] + 1 + strays / 2,
+                  sphere.indices[3 * f + 1] + 1 + strays / 2, sphere.indices[3 * f + 2] + 1 + strays / 2);
+    text += line;
+  }
+  return text;
 }
 
 }  // namespace vpr::testing

@@ -13,6 +13,8 @@ namespace vpr::bench {
 inline Mesh subdivide_once(const Mesh& in) {
   Mesh out;
   out.positions = in.positions;
+  out.origin = in.origin;
+  out.scale = in.scale;
   std::unordered_map<uint64_t, uint32_t> midpoint;
   midpoint.reserve(in.indices.size());
   auto mid = [&](uint32_t a, uint32_t b) {

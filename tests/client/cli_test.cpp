@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +13,7 @@
 #include "cli_runner.h"
 #include "eval/mesh_quality.h"
 #include "io/mesh_io.h"
+#include "test_meshes.h"
 
 namespace fs = std::filesystem;
 
@@ -75,6 +77,52 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
   EXPECT_TRUE(fs::exists(path("debug/view_py_points.ply")));
 }
 
+// Issue 19: a model moved up to 1e7 away, or resized by 1e-6 .. 1e6, remeshes
+// to the same output moved or resized (within 1e-5 of the diagonal, same
+// counts); unused vertices change nothing and are reported.
+TEST_F(CliTest, LocalOutputFollowsTheInputsTranslationAndScaleAndIgnoresStrayVertices) {
+  struct Case {
+    const char* name;
+    double scale, shift;
+    int strays;
+  };
+  const Case cases[] = {{"plain", 1, 0, 0},    {"moved", 1, 1e6, 0},    {"far", 1, -1e7, 0},
+                        {"tiny", 1e-6, 0, 0},  {"huge", 1e6, 0, 0},     {"strays", 1, 0, 100}};
+  std::vector<Mesh> out;
+  for (const Case& c : cases) {
+    const std::string in = write(std::string(c.name) + ".obj", vpr::testing::bumpy_sphere_obj(c.scale, c.shift, c.strays));
+    CliRun r = run_cli("local " + in + " -o " + path(std::string(c.name) + "_out.obj") + " --target-vertices 300 --json");
+    ASSERT_EQ(r.code, 0) << c.name << ": " << r.all();
+    EXPECT_EQ(nlohmann::json::parse(r.out)["ignored_vertices"], c.strays) << c.name;
+    auto mesh = read_mesh(path(std::string(c.name) + "_out.obj"));
+    ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+    out.push_back(std::move(mesh).value());
+  }
+  const Mesh& plain = out[0];
+  double diagonal2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    double lo = 1e300, hi = -1e300;
+    for (size_t v = 0; v < plain.vertex_count(); ++v) {
+      lo = std::min(lo, plain.absolute(v, a));
+      hi = std::max(hi, plain.absolute(v, a));
+    }
+    diagonal2 += (hi - lo) * (hi - lo);
+  }
+  const double diagonal = std::sqrt(diagonal2);
+  for (size_t i = 1; i < out.size(); ++i) {
+    const Case& c = cases[i];
+    ASSERT_EQ(out[i].vertex_count(), plain.vertex_count()) << c.name;
+    ASSERT_EQ(out[i].face_count(), plain.face_count()) << c.name;
+    EXPECT_EQ(out[i].indices, plain.indices) << c.name;
+    double worst = 0;
+    for (size_t v = 0; v < plain.vertex_count(); ++v)
+      for (int a = 0; a < 3; ++a)
+        worst = std::max(worst, std::fabs((out[i].absolute(v, a) - c.shift) / c.scale - plain.absolute(v, a)));
+    std::printf("  %-7s max deviation %.3g of the diagonal\n", c.name, worst / diagonal);
+    EXPECT_LT(worst, 1e-5 * diagonal) << c.name;
+  }
+}
+
 TEST_F(CliTest, TablePrintsEveryStage) {
   CliRun r = run_cli("local ../shared/models/suzanne.obj -o " + path("s.ply") + " --target-vertices 300");
   ASSERT_EQ(r.code, 0) << r.all();
@@ -111,6 +159,11 @@ TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
     EXPECT_EQ(r.code, c.code) << c.args << "\n" << r.all();
     EXPECT_NE(r.all().find(c.needle), std::string::npos) << c.args << "\n" << r.all();
   }
+  // The file is named once ("x.drc: Draco: ...", not "x.drc: x.drc: Draco: ...").
+  CliRun r = run_cli("local " + corrupt + " -o " + path("o.ply") + " -n 500");
+  const size_t first = r.err.find("corrupt.drc");
+  ASSERT_NE(first, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("corrupt.drc", first + 1), std::string::npos) << r.err;
 }
 
 TEST_F(CliTest, EvalOfAMeshAgainstItselfIsZero) {

@@ -97,6 +97,52 @@ TEST(ValidateMesh, NamesEachProblem) {
   EXPECT_NE(s.message().find("limit is 3"), std::string::npos) << s.message();
 }
 
+TEST(Mesh, UnreferencedVerticesAreDroppedInOrder) {
+  Mesh m = unit_square();
+  const size_t nv = m.vertex_count();
+  // Strays before, between and after the used ones.
+  m.positions.insert(m.positions.begin(), {9, 9, 9});
+  m.positions.insert(m.positions.end(), {7, 7, 7, 8, 8, 8});
+  for (uint32_t& i : m.indices) i += 1;
+  const Mesh expected = unit_square();
+  EXPECT_EQ(unreferenced_vertex_count(m), 3u);
+  std::vector<uint32_t> used;
+  EXPECT_EQ(remove_unreferenced_vertices(&m, &used), 3u);
+  EXPECT_EQ(m.positions, expected.positions);
+  EXPECT_EQ(m.indices, expected.indices);
+  ASSERT_EQ(used.size(), nv);
+  for (size_t v = 0; v < nv; ++v) EXPECT_EQ(used[v], v + 1);
+  EXPECT_EQ(remove_unreferenced_vertices(&m, &used), 0u);
+  EXPECT_TRUE(used.empty());
+}
+
+TEST(Mesh, OriginIsTheCentreOfUsedVerticesOnlyFarFromZero) {
+  // A unit triangle at 1e6 and a stray vertex at 0: the stray does not move the origin.
+  const std::vector<double> far = {1e6, 1e6, 1e6, 1e6 + 1, 1e6, 1e6, 1e6, 1e6 + 1, 1e6, 0, 0, 0};
+  Mesh m = mesh_from_absolute(far, {0, 1, 2});
+  EXPECT_EQ(m.origin, (std::array<double, 3>{1e6 + 0.5, 1e6 + 0.5, 1e6}));
+  EXPECT_DOUBLE_EQ(m.scale, std::sqrt(2.0));  // the diagonal: positions are scale-free
+  EXPECT_FLOAT_EQ(m.positions[3], float(0.5 / std::sqrt(2.0)));
+  for (size_t i = 0; i < 9; ++i) EXPECT_NEAR(m.absolute(i / 3, int(i % 3)), far[i], 1e-6) << i;
+  EXPECT_NEAR(m.absolute(3, 0), 0.0, 1e-7 * 1e6);  // the stray: a float's precision at its distance
+  EXPECT_FALSE(absolute_fits_float(m));
+  // The same triangle resized by 1e-6 and moved: the same floats.
+  std::vector<double> small(far.begin(), far.begin() + 9);
+  for (double& x : small) x = (x - 1e6) * 1e-6 - 42;
+  Mesh s = mesh_from_absolute(small, {0, 1, 2});
+  EXPECT_EQ(s.positions, std::vector<float>(m.positions.begin(), m.positions.begin() + 9));
+  // Near zero floats suffice for a file.
+  const std::vector<double> near = {1, 1, 1, 2, 1, 1, 1, 2, 1};
+  m = mesh_from_absolute(near, {0, 1, 2});
+  EXPECT_TRUE(absolute_fits_float(m));
+  const Mesh moved = rebased(m, {1, 1, 1}, 1);
+  const std::vector<float> expected = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  for (size_t i = 0; i < 9; ++i) {
+    EXPECT_NEAR(m.absolute(i / 3, int(i % 3)), near[i], 1e-7) << i;
+    EXPECT_NEAR(moved.positions[i], expected[i], 1e-7) << i;
+  }
+}
+
 TEST(StatusOr, CarriesValueOrError) {
   StatusOr<int> good(5);
   ASSERT_TRUE(good.ok());

@@ -138,11 +138,19 @@ Mesh uv_sphere(int rings, int segments) {
   return m;
 }
 
+// Positions are scale-free floats in the mesh's frame (mesh.h): values read
+// come back to within a float's precision of the bounding-box diagonal.
+void expect_positions(const Mesh& mesh, const std::vector<float>& expected, const std::string& what) {
+  ASSERT_EQ(mesh.positions.size(), expected.size()) << what;
+  for (size_t i = 0; i < expected.size(); ++i)
+    EXPECT_NEAR(mesh.absolute(i / 3, int(i % 3)), expected[i], 1e-7 * mesh.scale) << what << ", coordinate " << i;
+}
+
 void expect_cube(const StatusOr<Mesh>& mesh, const std::string& what) {
   ASSERT_TRUE(mesh.ok()) << what << ": " << mesh.status().to_string();
   EXPECT_EQ(mesh->vertex_count(), 8u) << what;
   EXPECT_EQ(mesh->face_count(), 12u) << what;
-  EXPECT_EQ(mesh->positions, cube_positions()) << what;
+  expect_positions(*mesh, cube_positions(), what);
   EXPECT_EQ(mesh->indices, cube_triangles()) << what;
 }
 
@@ -267,7 +275,7 @@ TEST(Obj, NanAndInfVerticesAreReportedByValidation) {
   // Underflow is not an error: 1e-50 reads as 0.
   auto tiny = parse("v 1e-50 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", MeshFormat::kObj);
   ASSERT_TRUE(tiny.ok()) << tiny.status().to_string();
-  EXPECT_EQ(tiny->positions[0], 0.0f);
+  EXPECT_NEAR(tiny->absolute(0, 0), 0.0, 1e-7);
 }
 
 TEST(Obj, LimitsFailEarlyWithResourceExhausted) {
@@ -587,7 +595,7 @@ TEST(Stl, BinaryAndAsciiGiveTheSameMergedMesh) {
   // 36 corners merge into the 8 distinct positions, in first-occurrence order.
   EXPECT_EQ(b->vertex_count(), 8u);
   EXPECT_EQ(b->face_count(), 12u);
-  EXPECT_EQ(a->positions, b->positions);
+  expect_positions(*a, absolute_positions(*b), "ASCII against binary");
   EXPECT_EQ(a->indices, b->indices);
   // First occurrences follow the triangle list: 0, 3, 2, 1, 4, 5, ...
   const std::vector<float> cube = cube_positions();
@@ -597,7 +605,7 @@ TEST(Stl, BinaryAndAsciiGiveTheSameMergedMesh) {
     if (std::find(order.begin(), order.end(), int(v)) == order.end()) order.push_back(int(v));
   }
   for (size_t i = 0; i < 8; ++i) {
-    for (int a3 = 0; a3 < 3; ++a3) EXPECT_EQ(b->positions[3 * i + a3], cube[3 * order[i] + a3]);
+    for (int a3 = 0; a3 < 3; ++a3) EXPECT_NEAR(b->absolute(i, a3), cube[3 * order[i] + a3], 1e-6);
   }
   for (size_t c = 0; c < tri.size(); ++c) EXPECT_EQ(order[b->indices[c]], int(tri[c]));
 }
@@ -760,12 +768,12 @@ TEST(Draco, CubeRoundTrip) {
     for (size_t j = 0; j < 8; ++j) {
       double d = 0;
       for (int a = 0; a < 3; ++a)
-        d = std::max(d, double(std::fabs(back->positions[3 * i + a] - cube.positions[3 * j + a])));
+        d = std::max(d, std::fabs(back->absolute(i, a) - cube.absolute(j, a)));
       best = std::min(best, d);
     }
     EXPECT_LE(best, bound) << "vertex " << i;
   }
-  EXPECT_NEAR(total_area(*back), total_area(cube), 1e-3 * total_area(cube));
+  EXPECT_NEAR(total_area(*back) * back->scale * back->scale, total_area(cube), 1e-3 * total_area(cube));
 }
 
 TEST(Draco, SaliencyRoundTripWithinQuantization) {
@@ -797,7 +805,7 @@ TEST(Draco, SaliencyRoundTripWithinQuantization) {
     for (size_t j = 0; j < sphere.vertex_count(); ++j) {
       double d = 0;
       for (int a = 0; a < 3; ++a)
-        d = std::max(d, double(std::fabs(back->positions[3 * i + a] - sphere.positions[3 * j + a])));
+        d = std::max(d, std::fabs(back->absolute(i, a) - sphere.absolute(j, a)));
       if (d < best) {
         best = d;
         original[i] = uint32_t(j);
@@ -853,7 +861,7 @@ TEST(Draco, SequentialKeepsSoupsEdgebreakerDropsDegenerateFaces) {
   auto kept = parse_mesh(a->data(), a->size(), MeshFormat::kDraco);
   ASSERT_TRUE(kept.ok()) << kept.status().to_string();
   EXPECT_EQ(kept->indices, soup.indices);
-  EXPECT_EQ(kept->positions, soup.positions);  // 0 and 1 are exact at any bit count
+  expect_positions(*kept, soup.positions, "sequential");  // 0 and 1 are exact at any bit count
   auto b = encode_draco(soup, nullptr, DracoOptions{});
   ASSERT_TRUE(b.ok());
   auto edgebreaker = parse_mesh(b->data(), b->size(), MeshFormat::kDraco);
@@ -915,7 +923,7 @@ TEST(Draco, BooleanOrOutOfRangePositionsAreInvalidArgument) {
   const int16_t steps[3][3] = {{0, 0, 0}, {-7, 0, 0}, {0, 300, 0}};
   auto mesh = parse(draco_triangle(draco::DT_INT16, steps), MeshFormat::kDraco);
   ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
-  EXPECT_EQ(mesh->positions, (std::vector<float>{0, 0, 0, -7, 0, 0, 0, 300, 0}));
+  expect_positions(*mesh, {0, 0, 0, -7, 0, 0, 0, 300, 0}, "int16 positions");
 }
 
 TEST(Draco, PointCloudAndCorruptBytesAreInvalidArgument) {
@@ -1063,6 +1071,106 @@ struct ModelCount {
   size_t triangles;  // after fan triangulation
 };
 
+// ---- Far from the origin (issue 19) -------------------------------------------
+
+// The cube moved by `shift` as OBJ text with every digit of a double.
+std::string shifted_cube_obj(const double shift[3]) {
+  std::string text;
+  const std::vector<float> p = cube_positions();
+  char line[128];
+  for (size_t v = 0; v < 8; ++v) {
+    std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", p[3 * v] + shift[0], p[3 * v + 1] + shift[1],
+                  p[3 * v + 2] + shift[2]);
+    text += line;
+  }
+  for (auto& q : kCubeQuads) {
+    std::snprintf(line, sizeof line, "f %d %d %d %d\n", q[0] + 1, q[1] + 1, q[2] + 1, q[3] + 1);
+    text += line;
+  }
+  return text;
+}
+
+// Largest |absolute(back) - (cube + shift)| over the vertices, in units of the cube's diagonal.
+double deviation_from_shifted_cube(const Mesh& back, const double shift[3]) {
+  const std::vector<float> p = cube_positions();
+  const double diagonal = std::sqrt(1.6 * 1.6 + 2.25 * 2.25 + 3.001 * 3.001);
+  double worst = 0;
+  for (size_t v = 0; v < 8; ++v)
+    for (int a = 0; a < 3; ++a) worst = std::max(worst, std::fabs(back.absolute(v, a) - (p[3 * v + a] + shift[a])));
+  return worst / diagonal;
+}
+
+TEST(FarFromOrigin, ReadInDoubleAndWrittenWithTheOriginAddedBack) {
+  TempDir dir;
+  for (double t : {1e5, 1e7, -3e7}) {
+    const double shift[3] = {t, -t, 0.5 * t};
+    auto mesh = parse(shifted_cube_obj(shift), MeshFormat::kObj);
+    ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+    // The origin is the bounding-box centre; the floats are relative to it.
+    EXPECT_NEAR(mesh->origin[0], t - 0.7, 1e-9 * std::fabs(t));
+    EXPECT_LT(deviation_from_shifted_cube(*mesh, shift), 1e-7) << t;
+    // A float absolute coordinate at 1e7 is 1 apart: 0.3 of this cube.
+    for (const char* name : {"far.obj", "far.ply"}) {
+      ASSERT_TRUE(write_mesh(dir.file(name), *mesh, nullptr).ok()) << name;
+      auto back = read_mesh(dir.file(name));
+      ASSERT_TRUE(back.ok()) << back.status().to_string();
+      EXPECT_EQ(back->indices, mesh->indices) << name;
+      EXPECT_LT(deviation_from_shifted_cube(*back, shift), 1e-7) << name << " at " << t;
+    }
+    // Draco: 64-bit positions on the 14-bit grid of the relative frame, or exact.
+    for (int bits : {0, 14}) {
+      DracoOptions options;
+      options.position_bits = bits;
+      auto bytes = encode_draco(*mesh, nullptr, options);
+      ASSERT_TRUE(bytes.ok()) << bytes.status().to_string();
+      auto back = parse_mesh(bytes->data(), bytes->size(), MeshFormat::kDraco);
+      ASSERT_TRUE(back.ok()) << back.status().to_string();
+      ASSERT_EQ(back->vertex_count(), 8u);
+      double worst = 0;  // vertices may be reordered by edgebreaker: nearest original
+      const std::vector<float> p = cube_positions();
+      for (size_t i = 0; i < 8; ++i) {
+        double best = 1e300;
+        for (size_t j = 0; j < 8; ++j) {
+          double d = 0;
+          for (int a = 0; a < 3; ++a) d = std::max(d, std::fabs(back->absolute(i, a) - (p[3 * j + a] + shift[a])));
+          best = std::min(best, d);
+        }
+        worst = std::max(worst, best);
+      }
+      EXPECT_LE(worst, bits == 0 ? 1e-9 * std::fabs(t) : quantization_bound(3.001, 14) + 1e-9 * std::fabs(t))
+          << "Draco, " << bits << " bits, at " << t;
+    }
+  }
+}
+
+TEST(FarFromOrigin, LosslessDracoGivesBackTheSameFloatsAndFrame) {
+  for (double t : {0.0, 1e6}) {
+    auto mesh = parse(shifted_cube_obj(std::array<double, 3>{t, t, t}.data()), MeshFormat::kObj);
+    ASSERT_TRUE(mesh.ok());
+    for (int speed : {0, 10}) {
+      auto bytes = encode_draco(*mesh, nullptr, DracoOptions{0, 10, speed});
+      ASSERT_TRUE(bytes.ok()) << bytes.status().to_string();
+      auto back = parse_mesh(bytes->data(), bytes->size(), MeshFormat::kDraco);
+      ASSERT_TRUE(back.ok()) << back.status().to_string();
+      EXPECT_EQ(back->origin, mesh->origin);
+      EXPECT_EQ(back->scale, mesh->scale);
+      if (speed == 10) EXPECT_EQ(back->positions, mesh->positions) << t;  // sequential keeps the order
+    }
+  }
+}
+
+TEST(FarFromOrigin, NearModelsGetFloatFiles) {
+  TempDir dir;
+  auto mesh = parse(shifted_cube_obj(std::array<double, 3>{5, 5, 5}.data()), MeshFormat::kObj);
+  ASSERT_TRUE(mesh.ok());  // 5 is within 8 diagonals of zero
+  ASSERT_TRUE(write_mesh(dir.file("near.ply"), *mesh, nullptr).ok());
+  EXPECT_NE(read_bytes(dir.file("near.ply")).find("property float x"), std::string::npos);
+  auto far = parse(shifted_cube_obj(std::array<double, 3>{1e6, 0, 0}.data()), MeshFormat::kObj);
+  ASSERT_TRUE(far.ok());
+  ASSERT_TRUE(write_mesh(dir.file("far.ply"), *far, nullptr).ok());
+  EXPECT_NE(read_bytes(dir.file("far.ply")).find("property double x"), std::string::npos);
+}
+
 TEST(SharedModels, LoadWithReadmeCounts) {
   // README counts; beast and suzanne list polygons: beast has 124 triangles,
   // 32228 quads, 10 pentagons and 2 hexagons (32364 polygons -> 64618
@@ -1098,7 +1206,12 @@ TEST(SharedModels, HorseSurvivesObjAndPlyWritersExactly) {
     ASSERT_TRUE(write_mesh(dir.file(name), *horse, nullptr).ok());
     auto back = read_mesh(dir.file(name));
     ASSERT_TRUE(back.ok()) << back.status().to_string();
-    EXPECT_TRUE(back->positions == horse->positions) << name << ": shortest float text must read back exactly";
+    // Positions are scale-free floats in the file's frame (mesh.h): the text
+    // reads back to within a float's precision of the diagonal.
+    double worst = 0;
+    for (size_t v = 0; v < horse->vertex_count(); ++v)
+      for (int a = 0; a < 3; ++a) worst = std::max(worst, std::fabs(back->absolute(v, a) - horse->absolute(v, a)));
+    EXPECT_LT(worst, 2e-7 * horse->scale) << name;
     EXPECT_TRUE(back->indices == horse->indices) << name;
   }
 }

@@ -196,6 +196,41 @@ TEST(RemeshService, RemeshStreamsTheSameResultAsVpremeshLocal) {
 
 // The optional payloads: the saliency points (x, y, z in the input's units),
 // the per-view debug PNGs and the field on the input mesh.
+// Issue 16: a caller that sets no payload switch gets the mesh and one
+// saliency value per output vertex; one that says false gets the summary.
+TEST(RemeshService, ResultAndSaliencyComeBackUnlessTurnedOff) {
+  Server s(1);
+  const std::vector<uint8_t> mesh = draco_sphere();
+  for (int explicit_off : {0, 1}) {
+    v1::JobSpec spec = small_spec();
+    spec.clear_return_mesh();
+    spec.clear_return_saliency();
+    if (explicit_off) {
+      spec.set_return_mesh(false);
+      spec.set_return_saliency(false);
+    }
+    const Outcome out = remesh(s, upload(spec, mesh));
+    ASSERT_TRUE(out.status.ok()) << out.status.error_message();
+    ASSERT_TRUE(out.events.back().has_completed());
+    std::string result;
+    size_t saliency = 0;
+    for (const v1::JobEvent& e : out.events) {
+      if (e.has_result()) result += e.result().data();
+      if (e.has_saliency()) saliency += size_t(e.saliency().values_size());
+    }
+    const uint32_t vertices = out.events.back().completed().output_vertices();
+    if (explicit_off) {
+      EXPECT_TRUE(result.empty());
+      EXPECT_EQ(saliency, 0u);
+      continue;
+    }
+    auto decoded = parse_mesh(reinterpret_cast<const uint8_t*>(result.data()), result.size(), MeshFormat::kDraco);
+    ASSERT_TRUE(decoded.ok()) << decoded.status().to_string();
+    EXPECT_EQ(decoded->vertex_count(), vertices);
+    EXPECT_EQ(saliency, size_t(vertices));
+  }
+}
+
 TEST(RemeshService, ReturnsSaliencyPointsDebugImagesAndTheInputField) {
   Server s(1);
   const std::vector<uint8_t> mesh = draco_sphere();
@@ -232,11 +267,12 @@ TEST(RemeshService, ReturnsSaliencyPointsDebugImagesAndTheInputField) {
   ASSERT_TRUE(input.ok());
   ASSERT_GT(done.saliency_points(), 0u);
   EXPECT_EQ(points.size(), 3 * done.saliency_points());
+  const std::vector<float> positions = absolute_positions(*input);  // the points are in the input's units
   float lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = input->positions[a];
-  for (size_t i = 0; i < input->positions.size(); ++i) {
-    lo[i % 3] = std::min(lo[i % 3], input->positions[i]);
-    hi[i % 3] = std::max(hi[i % 3], input->positions[i]);
+  for (int a = 0; a < 3; ++a) lo[a] = hi[a] = positions[a];
+  for (size_t i = 0; i < positions.size(); ++i) {
+    lo[i % 3] = std::min(lo[i % 3], positions[i]);
+    hi[i % 3] = std::max(hi[i % 3], positions[i]);
   }
   size_t outside = 0;
   for (size_t i = 0; i < points.size(); ++i) {

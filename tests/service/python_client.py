@@ -40,8 +40,9 @@ def main():
 
     with open(args.mesh, "rb") as f:
         data = f.read()
-    spec = remesh_pb2.JobSpec(target_vertices=args.target, mesh_size_bytes=len(data), label="python_client",
-                              return_mesh=True, return_saliency=True)
+    # return_mesh and return_saliency are left unset: the result and its
+    # saliency come back by default (remesh.proto).
+    spec = remesh_pb2.JobSpec(target_vertices=args.target, mesh_size_bytes=len(data), label="python_client")
     kinds, result, saliency, completed, job_id = [], bytearray(), [], None, ""
     with grpc.insecure_channel(args.server) as channel:
         stub = remesh_pb2_grpc.RemeshServiceStub(channel)

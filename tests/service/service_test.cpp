@@ -145,6 +145,49 @@ TEST_F(ServiceTest, SubmitEqualsLocalAndJobCommandsAnswer) {
 // Sixteen jobs at once, each with its own target: every one completes, with
 // its own result (no job gets another's mesh), and the first equals a local
 // run on the same upload.
+// Issue 19 through the service: a Draco upload of a model 1e6 away (64-bit
+// positions) or resized by 1e-6 comes back as the plain model's result moved
+// or resized, and stray vertices are ignored and reported.
+TEST_F(ServiceTest, FarAndResizedUploadsGiveTheSameResultTransformed) {
+  START_SERVER(server);
+  struct Case {
+    const char* name;
+    double scale, shift;
+    int strays;
+  };
+  const Case cases[] = {{"plain", 1, 0, 0}, {"moved", 1, 1e6, 0}, {"tiny", 1e-6, 0, 0}, {"strays", 1, 0, 100}};
+  std::vector<Mesh> out;
+  for (const Case& c : cases) {
+    const std::string obj = path(std::string(c.name) + ".obj");
+    std::ofstream(obj) << bumpy_sphere_obj(c.scale, c.shift, c.strays);
+    // The upload is Draco: convert first, so the server gets the file as given.
+    const std::string drc = path(std::string(c.name) + ".drc");
+    auto mesh = read_mesh(obj);
+    ASSERT_TRUE(mesh.ok());
+    ASSERT_TRUE(write_mesh(drc, *mesh, nullptr, DracoOptions{0, 10, 10}).ok());
+    CliRun r = run_cli("submit " + drc + " -o " + path(std::string(c.name) + "_out.drc") +
+                       " -n 300 --json --result-quantization-bits 30 --server " + server->address());
+    ASSERT_EQ(r.code, 0) << c.name << ": " << r.err << "\n" << server->log();
+    EXPECT_EQ(nlohmann::json::parse(r.out)["ignored_vertices"], c.strays) << c.name;
+    auto back = read_mesh(path(std::string(c.name) + "_out.drc"));
+    ASSERT_TRUE(back.ok()) << back.status().to_string();
+    out.push_back(std::move(back).value());
+  }
+  const Mesh& plain = out[0];
+  for (size_t i = 1; i < out.size(); ++i) {
+    const Case& c = cases[i];
+    ASSERT_EQ(out[i].vertex_count(), plain.vertex_count()) << c.name;
+    ASSERT_EQ(out[i].face_count(), plain.face_count()) << c.name;
+    // Sequential connectivity keeps the order: vertex by vertex.
+    double worst = 0;
+    for (size_t v = 0; v < plain.vertex_count(); ++v)
+      for (int a = 0; a < 3; ++a)
+        worst = std::max(worst, std::fabs((out[i].absolute(v, a) - c.shift) / c.scale - plain.absolute(v, a)));
+    std::printf("  %-7s max deviation %.3g of the diagonal\n", c.name, worst / plain.scale);
+    EXPECT_LT(worst, 1e-5 * plain.scale) << c.name;
+  }
+}
+
 TEST_F(ServiceTest, SixteenConcurrentJobsAllComplete) {
   START_SERVER(server, {"--workers", "2", "--max-jobs-per-client", "16"});
   const std::vector<uint8_t> sphere = lossless_draco(icosphere(3));

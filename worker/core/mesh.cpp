@@ -1,5 +1,7 @@
 #include "core/mesh.h"
 
+#include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <string>
 
@@ -26,6 +28,10 @@ Status validate_mesh(const Mesh& mesh, const MeshLimits& limits) {
   if (nf > limits.max_faces)
     return resource_exhausted("mesh has " + std::to_string(nf) + " faces, the limit is " +
                               std::to_string(limits.max_faces));
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite(mesh.origin[size_t(a)])) return invalid_argument("the mesh's origin is not finite");
+  }
+  if (!(mesh.scale > 0) || !std::isfinite(mesh.scale)) return invalid_argument("the mesh's scale is not positive");
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     if (!std::isfinite(mesh.positions[i]))
       return invalid_argument("vertex " + std::to_string(i / 3) + " has a non-finite coordinate (NaN or infinity)");
@@ -52,6 +58,118 @@ Aabb bounding_box(const float* p, size_t n) {
     }
   }
   return box;
+}
+
+Mesh mesh_from_absolute(const std::vector<double>& positions, std::vector<uint32_t> indices) {
+  Mesh mesh;
+  mesh.indices = std::move(indices);
+  const size_t nv = positions.size() / 3;
+  // Only coordinates a float can hold count; the others are reported.
+  auto usable = [](double x) { return std::abs(x) <= double(FLT_MAX); };
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  auto include = [&](size_t v) {
+    for (int a = 0; a < 3; ++a) {
+      const double x = positions[3 * v + size_t(a)];
+      if (!usable(x)) continue;
+      lo[a] = std::min(lo[a], x);
+      hi[a] = std::max(hi[a], x);
+    }
+  };
+  bool any_face = false;
+  for (uint32_t i : mesh.indices) {
+    if (i < nv) {
+      include(i);
+      any_face = true;
+    }
+  }
+  if (!any_face)
+    for (size_t v = 0; v < nv; ++v) include(v);
+  double diag2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    if (!(lo[a] <= hi[a])) continue;
+    // Halves first: lo + hi may overflow where each alone does not.
+    mesh.origin[size_t(a)] = 0.5 * lo[a] + 0.5 * hi[a];
+    diag2 += (0.5 * hi[a] - 0.5 * lo[a]) * (0.5 * hi[a] - 0.5 * lo[a]);
+  }
+  const double diagonal = 2 * std::sqrt(diag2);
+  if (diagonal > 0 && std::isfinite(diagonal)) mesh.scale = diagonal;
+  mesh.positions.resize(3 * nv);
+  for (size_t i = 0; i < 3 * nv; ++i) {
+    const double x = positions[i];
+    mesh.positions[i] = usable(x) ? float((x - mesh.origin[i % 3]) / mesh.scale) : x > 0 ? HUGE_VALF
+                                                                                  : x < 0 ? -HUGE_VALF
+                                                                                          : NAN;
+  }
+  return mesh;
+}
+
+Mesh rebased(const Mesh& mesh, const std::array<double, 3>& origin, double scale) {
+  Mesh out;
+  out.indices = mesh.indices;
+  out.origin = origin;
+  out.scale = scale;
+  out.positions.resize(mesh.positions.size());
+  for (size_t i = 0; i < mesh.positions.size(); ++i)
+    out.positions[i] = float((mesh.origin[i % 3] - origin[i % 3] + mesh.scale * double(mesh.positions[i])) / scale);
+  return out;
+}
+
+std::vector<float> absolute_positions(const Mesh& mesh) {
+  std::vector<float> out(mesh.positions.size());
+  for (size_t i = 0; i < out.size(); ++i) {
+    const double d = mesh.absolute(i / 3, int(i % 3));
+    out[i] = d > double(FLT_MAX) ? HUGE_VALF : d < -double(FLT_MAX) ? -HUGE_VALF : float(d);
+  }
+  return out;
+}
+
+bool absolute_fits_float(const Mesh& mesh) {
+  // A float's spacing near x is at most x * 2^-23: within 8 diagonals of zero
+  // that is below 1e-6 of the diagonal. Only the vertices faces use count (a
+  // stray vertex far away does not make floats precise enough for the rest).
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (uint32_t i : mesh.indices)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], mesh.absolute(i, a));
+      hi[a] = std::max(hi[a], mesh.absolute(i, a));
+    }
+  double diag2 = 0, far = 0;
+  for (int a = 0; a < 3; ++a) {
+    if (!(lo[a] <= hi[a])) return true;
+    diag2 += (hi[a] - lo[a]) * (hi[a] - lo[a]);
+    far = std::max({far, std::abs(lo[a]), std::abs(hi[a])});
+  }
+  // Floats also need the model inside their normal range (a model 1e-40
+  // across would underflow to zeros).
+  const double diagonal = std::sqrt(diag2);
+  return far <= 8.0 * diagonal && diagonal >= 1e-30 && far <= 1e37;
+}
+
+size_t unreferenced_vertex_count(const Mesh& mesh) {
+  std::vector<bool> referenced(mesh.vertex_count(), false);
+  for (uint32_t i : mesh.indices) referenced[i] = true;
+  return size_t(std::count(referenced.begin(), referenced.end(), false));
+}
+
+size_t remove_unreferenced_vertices(Mesh* mesh, std::vector<uint32_t>* used) {
+  constexpr uint32_t kUnused = UINT32_MAX;
+  const size_t nv = mesh->vertex_count();
+  std::vector<uint32_t> remap(nv, kUnused);
+  for (uint32_t i : mesh->indices) remap[i] = 0;
+  uint32_t kept = 0;
+  for (size_t v = 0; v < nv; ++v)
+    if (remap[v] != kUnused) remap[v] = kept++;
+  if (used) used->clear();
+  if (kept == nv) return 0;
+  if (used) used->resize(kept);
+  for (size_t v = 0; v < nv; ++v) {
+    if (remap[v] == kUnused) continue;
+    for (int a = 0; a < 3; ++a) mesh->positions[3 * size_t(remap[v]) + size_t(a)] = mesh->positions[3 * v + size_t(a)];
+    if (used) (*used)[remap[v]] = uint32_t(v);
+  }
+  mesh->positions.resize(3 * size_t(kept));
+  for (uint32_t& i : mesh->indices) i = remap[i];
+  return nv - kept;
 }
 
 std::vector<double> face_areas(const Mesh& mesh) {

@@ -12,12 +12,26 @@
 
 namespace vpr {
 
+// Positions are floats relative to a double-precision origin, so that a model
+// far from the coordinate origin (a scan in georeferenced coordinates, a part
+// placed in a plant model) keeps the precision a float has near zero: vertex
+// v sits at origin + scale * positions[3v..3v+2] in the model's units.
+// Readers set the frame (mesh_from_absolute: the bounding-box centre and
+// diagonal, so the floats are scale-free and the same for a model moved or
+// resized); stages work on the floats and carry the frame to their output;
+// writers apply it in double. Meshes built in code keep origin 0, scale 1.
 struct Mesh {
-  std::vector<float> positions;   // #V x 3 floats, model space
+  std::vector<float> positions;   // #V x 3 floats, in the frame below
   std::vector<uint32_t> indices;  // #F x 3 vertex indices, counter-clockwise when oriented
+  std::array<double, 3> origin{0, 0, 0};  // model units
+  double scale = 1;                       // model units per position unit, > 0
 
   size_t vertex_count() const { return positions.size() / 3; }
   size_t face_count() const { return indices.size() / 3; }
+  // Vertex v's coordinate on axis a in the model's units.
+  double absolute(size_t v, int a) const {
+    return origin[size_t(a)] + scale * double(positions[3 * v + size_t(a)]);
+  }
 };
 
 struct Aabb {
@@ -41,6 +55,32 @@ Aabb bounding_box(const float* positions, size_t vertex_count);
 inline Aabb bounding_box(const Mesh& m) {
   return bounding_box(m.positions.data(), m.vertex_count());
 }
+
+// A mesh from positions in double (#V x 3, model units) and indices (#F x 3):
+// origin and scale are the bounding-box centre and diagonal of the vertices
+// the faces use (of all vertices when there are no faces), computed over
+// finite coordinates only. A coordinate that is not finite, or beyond the
+// float range, becomes +-inf or NaN where validate_mesh finds it.
+Mesh mesh_from_absolute(const std::vector<double>& positions, std::vector<uint32_t> indices);
+
+// The same mesh in another frame (positions recomputed in double, then
+// rounded to float once).
+Mesh rebased(const Mesh& mesh, const std::array<double, 3>& origin, double scale);
+
+// Absolute coordinates as floats (origin added; beyond the float range: +-inf).
+std::vector<float> absolute_positions(const Mesh& mesh);
+
+// True when float absolute coordinates hold the mesh to within 1e-6 of its
+// bounding-box diagonal (the vertices faces use lie within 8 diagonals of zero), so a
+// writer can store floats; false: store doubles, or the origin beside floats.
+bool absolute_fits_float(const Mesh& mesh);
+
+// Drops the vertices no face uses and renumbers the rest, keeping their order.
+// used (may be null): receives, for each kept vertex, its index in the input;
+// left empty when every vertex is used (nothing changes then). Returns the
+// number of vertices dropped.
+size_t remove_unreferenced_vertices(Mesh* mesh, std::vector<uint32_t>* used);
+size_t unreferenced_vertex_count(const Mesh& mesh);
 
 // Area of each face (#F doubles) and their sum; degenerate faces have area 0.
 std::vector<double> face_areas(const Mesh& mesh);

@@ -134,8 +134,13 @@ DirectedStats directed_distance(const Mesh& source, const SurfaceTree& target, s
 
 }  // namespace
 
-StatusOr<HausdorffResult> hausdorff_distance(const Mesh& reference, const Mesh& candidate,
+StatusOr<HausdorffResult> hausdorff_distance(const Mesh& reference, const Mesh& given_candidate,
                                              const HausdorffOptions& options) {
+  // Both in the reference's frame (their origins may differ: mesh.h).
+  Mesh moved;
+  const bool same_frame = given_candidate.origin == reference.origin && given_candidate.scale == reference.scale;
+  if (!same_frame) moved = rebased(given_candidate, reference.origin, reference.scale);
+  const Mesh& candidate = same_frame ? given_candidate : moved;
   if (Status s = validate_mesh(reference); !s.ok()) return Status(s.code(), "reference mesh: " + s.message());
   if (Status s = validate_mesh(candidate); !s.ok()) return Status(s.code(), "candidate mesh: " + s.message());
   if (options.samples_per_mesh == 0 || options.samples_per_mesh > kMaxHausdorffSamples)
@@ -155,12 +160,13 @@ StatusOr<HausdorffResult> hausdorff_distance(const Mesh& reference, const Mesh& 
   double diagonal2 = 0;
   for (int a = 0; a < 3; ++a) diagonal2 += (double(box.hi[a]) - box.lo[a]) * (double(box.hi[a]) - box.lo[a]);
   HausdorffResult r;
-  r.diagonal = std::sqrt(diagonal2);  // > 0: validate_mesh demands a positive area
-  r.forward_max = forward.max / r.diagonal;
-  r.backward_max = backward.max / r.diagonal;
+  const double diagonal = std::sqrt(diagonal2);  // > 0: validate_mesh demands a positive area
+  r.diagonal = diagonal * reference.scale;        // in the model's units
+  r.forward_max = forward.max / diagonal;
+  r.backward_max = backward.max / diagonal;
   r.max = std::max(r.forward_max, r.backward_max);
-  r.mean = 0.5 * (forward.mean + backward.mean) / r.diagonal;
-  r.rms = 0.5 * (forward.rms + backward.rms) / r.diagonal;
+  r.mean = 0.5 * (forward.mean + backward.mean) / diagonal;
+  r.rms = 0.5 * (forward.rms + backward.rms) / diagonal;
   return r;
 }
 

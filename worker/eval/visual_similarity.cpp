@@ -185,6 +185,8 @@ StatusOr<VisualReference> VisualReference::create(const Mesh& reference, Rendere
   VisualReference r;
   r.renderer_ = renderer;
   r.options_ = options;
+  r.origin_ = reference.origin;
+  r.scale_ = reference.scale;
   auto views = comparison_views(reference, options.views, options.resolution);
   if (!views.ok()) return views.status();
   r.views_ = std::move(*views);
@@ -198,8 +200,13 @@ StatusOr<VisualReference> VisualReference::create(const Mesh& reference, Rendere
   return r;
 }
 
-StatusOr<VisualSimilarity> VisualReference::compare(const Mesh& candidate) const {
-  if (Status s = validate_mesh(candidate); !s.ok()) return invalid_argument("candidate: " + s.message());
+StatusOr<VisualSimilarity> VisualReference::compare(const Mesh& given_candidate) const {
+  if (Status s = validate_mesh(given_candidate); !s.ok()) return invalid_argument("candidate: " + s.message());
+  // In the reference's frame (the origins may differ: mesh.h).
+  Mesh moved;
+  const bool same_frame = given_candidate.origin == origin_ && given_candidate.scale == scale_;
+  if (!same_frame) moved = rebased(given_candidate, origin_, scale_);
+  const Mesh& candidate = same_frame ? given_candidate : moved;
   std::vector<Snapshot> snaps;
   if (Status s = renderer_->render(candidate, views_, &snaps); !s.ok()) return s;
   VisualSimilarity out;

@@ -90,6 +90,8 @@ class VisualReference {
   std::vector<View> views_;
   std::vector<Snapshot> snapshots_;
   std::vector<FloatImage> gray_, lines_;
+  std::array<double, 3> origin_{0, 0, 0};  // the reference's frame (mesh.h); candidates are rebased to it
+  double scale_ = 1;
 };
 
 // The cameras VisualReference uses: make_views of the reference scaled by 1.05

@@ -2,8 +2,11 @@
 // draco::Decoder after a pre-scan of the header (below); encoding through
 // draco::ExpertEncoder with quantized positions and, optionally, a GENERIC
 // float attribute whose attribute metadata entry "name" is "saliency".
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <memory>
+#include <type_traits>
 #include <new>
 #include <string>
 
@@ -22,6 +25,10 @@ namespace io_detail {
 namespace {
 
 constexpr const char* kSaliencyName = "saliency";
+// Metadata of a 64-bit position attribute: the frame the writer's mesh had
+// (origin x, y, z and scale, mesh.h), so that a reader gets back exactly its
+// floats; readers without it see ordinary absolute positions.
+constexpr const char* kFrameName = "vpremesh_frame";
 // Nesting of sub-metadata that the pre-scan accepts (the encoder writes 0).
 constexpr int kMaxMetadataDepth = 16;
 // Declared faces (and vertices) per byte of input that the pre-scan accepts.
@@ -182,7 +189,8 @@ Status check_numeric(const draco::PointAttribute& att, const char* what) {
 // inconsistent. Through double and to_float: a float64 value beyond the
 // float range becomes +-inf (refused by validate_mesh) rather than an
 // undefined conversion inside Draco.
-bool gather(const draco::PointAttribute& att, uint32_t num_points, int components, float* out) {
+template <class T>
+bool gather(const draco::PointAttribute& att, uint32_t num_points, int components, T* out) {
   if (!att.is_mapping_identity() && att.indices_map_size() < num_points) return false;
   double value[4];
   if (components < 1 || components > 4) return false;
@@ -190,9 +198,35 @@ bool gather(const draco::PointAttribute& att, uint32_t num_points, int component
     const draco::AttributeValueIndex index = att.mapped_index(draco::PointIndex(p));
     if (index.value() >= att.size()) return false;
     if (!att.ConvertValue<double>(index, int8_t(components), value)) return false;
-    for (int c = 0; c < components; ++c) out[size_t(p) * components + c] = to_float(value[c]);
+    for (int c = 0; c < components; ++c) {
+      if constexpr (std::is_same_v<T, float>)
+        out[size_t(p) * components + c] = to_float(value[c]);
+      else
+        out[size_t(p) * components + c] = value[c];
+    }
   }
   return true;
+}
+
+// Positions on the grid Draco's quantizer would use (AttributeQuantization-
+// Transform: the minimum per axis, one step size from the largest extent),
+// in the mesh's relative frame; returned in absolute double coordinates.
+std::vector<double> quantized_absolute(const Mesh& mesh, int bits) {
+  const size_t nv = mesh.vertex_count();
+  std::vector<double> out(3 * nv);
+  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (size_t i = 0; i < 3 * nv; ++i) {
+    lo[i % 3] = std::min(lo[i % 3], double(mesh.positions[i]));
+    hi[i % 3] = std::max(hi[i % 3], double(mesh.positions[i]));
+  }
+  const double range = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  const double steps = double((uint64_t(1) << bits) - 1);
+  for (size_t i = 0; i < 3 * nv; ++i) {
+    double relative = mesh.positions[i];
+    if (bits > 0 && range > 0) relative = lo[i % 3] + std::floor((relative - lo[i % 3]) * steps / range + 0.5) * range / steps;
+    out[i] = mesh.origin[i % 3] + mesh.scale * relative;
+  }
+  return out;
 }
 
 }  // namespace
@@ -221,14 +255,34 @@ StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& l
 
   VPR_RETURN_IF_ERROR(check_numeric(*position, "position"));
 
-  Mesh mesh;
-  mesh.positions.resize(size_t(num_points) * 3);
-  if (!gather(*position, num_points, 3, mesh.positions.data()))
+  std::vector<double> positions(size_t(num_points) * 3);
+  if (!gather(*position, num_points, 3, positions.data()))
     return invalid_argument("Draco: the position attribute does not cover every point (corrupt data)");
-  mesh.indices.resize(size_t(num_faces) * 3);
+  std::vector<uint32_t> indices(size_t(num_faces) * 3);
   for (uint32_t f = 0; f < num_faces; ++f) {
     const draco::Mesh::Face& face = dm->face(draco::FaceIndex(f));
-    for (int k = 0; k < 3; ++k) mesh.indices[3 * size_t(f) + k] = face[k].value();
+    for (int k = 0; k < 3; ++k) indices[3 * size_t(f) + k] = face[k].value();
+  }
+  Mesh mesh = mesh_from_absolute(positions, std::move(indices));
+  // The writer's frame, when it left one and it is usable: the same floats.
+  const draco::AttributeMetadata* position_metadata =
+      dm->GetAttributeMetadataByAttributeId(dm->GetNamedAttributeId(draco::GeometryAttribute::POSITION));
+  std::vector<double> frame;
+  // Only a frame within 1e-6 of the one computed here (what a writer of the
+  // same mesh leaves): another would cost the floats their precision.
+  auto near_computed = [&](const std::vector<double>& f) {
+    if (f.size() != 4) return false;
+    for (int a = 0; a < 3; ++a)
+      if (!(std::fabs(f[size_t(a)] - mesh.origin[size_t(a)]) <= 1e-6 * mesh.scale)) return false;
+    return std::fabs(f[3] - mesh.scale) <= 1e-6 * mesh.scale;
+  };
+  if (position_metadata && position_metadata->GetEntryDoubleArray(kFrameName, &frame) && near_computed(frame)) {
+    for (size_t i = 0; i < positions.size(); ++i) {
+      const double x = (positions[i] - frame[i % 3]) / frame[3];
+      mesh.positions[i] = std::isnan(positions[i]) ? NAN : to_float(x);
+    }
+    mesh.origin = {frame[0], frame[1], frame[2]};
+    mesh.scale = frame[3];
   }
 
   if (saliency) {
@@ -268,11 +322,33 @@ StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* salie
 
   draco::Mesh dm;
   dm.set_num_points(uint32_t(nv));
+  // Draco quantizes 32-bit floats only, with a float origin: where floats
+  // cannot hold the model to 1e-6 of its size (far from zero), positions are
+  // stored as 64-bit floats, snapped to the grid the quantizer would use in
+  // the mesh's own frame, so both kinds of file move a vertex by at most half
+  // a quantization step. Lossless files (position_bits 0) are 64-bit too: a
+  // reader gets back exactly the floats of the mesh's frame (mesh.h), so an
+  // upload runs on what `vpremesh local` runs on.
+  const bool as_float = options.position_bits > 0 && absolute_fits_float(mesh);
   draco::GeometryAttribute position;
-  position.Init(draco::GeometryAttribute::POSITION, nullptr, 3, draco::DT_FLOAT32, false, sizeof(float) * 3, 0);
+  if (as_float) {
+    position.Init(draco::GeometryAttribute::POSITION, nullptr, 3, draco::DT_FLOAT32, false, sizeof(float) * 3, 0);
+  } else {
+    position.Init(draco::GeometryAttribute::POSITION, nullptr, 3, draco::DT_FLOAT64, false, sizeof(double) * 3, 0);
+  }
   const int position_id = dm.AddAttribute(position, true, uint32_t(nv));
-  for (size_t i = 0; i < nv; ++i)
-    dm.attribute(position_id)->SetAttributeValue(draco::AttributeValueIndex(uint32_t(i)), &mesh.positions[3 * i]);
+  if (as_float) {
+    const std::vector<float> absolute = absolute_positions(mesh);
+    for (size_t i = 0; i < nv; ++i)
+      dm.attribute(position_id)->SetAttributeValue(draco::AttributeValueIndex(uint32_t(i)), &absolute[3 * i]);
+  } else {
+    const std::vector<double> absolute = io_detail::quantized_absolute(mesh, options.position_bits);
+    for (size_t i = 0; i < nv; ++i)
+      dm.attribute(position_id)->SetAttributeValue(draco::AttributeValueIndex(uint32_t(i)), &absolute[3 * i]);
+    auto frame = std::make_unique<draco::AttributeMetadata>();
+    frame->AddEntryDoubleArray(io_detail::kFrameName, {mesh.origin[0], mesh.origin[1], mesh.origin[2], mesh.scale});
+    dm.AddAttributeMetadata(position_id, std::move(frame));
+  }
   int saliency_id = -1;
   if (saliency) {
     draco::GeometryAttribute generic;
@@ -292,7 +368,7 @@ StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* salie
   }
 
   draco::ExpertEncoder encoder(dm);
-  if (options.position_bits > 0) encoder.SetAttributeQuantization(position_id, options.position_bits);
+  if (options.position_bits > 0 && as_float) encoder.SetAttributeQuantization(position_id, options.position_bits);
   if (saliency_id >= 0) encoder.SetAttributeQuantization(saliency_id, options.saliency_bits);
   encoder.SetSpeedOptions(options.speed, options.speed);
   draco::EncoderBuffer out;

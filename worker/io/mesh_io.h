@@ -30,7 +30,10 @@ StatusOr<Mesh> read_mesh(const std::string& path, const MeshLimits& limits = {})
 // A value moves by at most half a quantization step: range / (2^bits - 1) / 2,
 // with range the largest extent of the attribute (positions: the bounding box).
 struct DracoOptions {
-  int position_bits = 14;  // quantization of positions, 1..30; 0 = none (lossless floats)
+  // Quantization of positions, 1..30; 0 = none (lossless: 64-bit floats).
+  // Models far from zero (floats would not hold them to 1e-6 of their size)
+  // are stored as 64-bit floats on the same grid.
+  int position_bits = 14;
   int saliency_bits = 10;  // quantization of the saliency attribute, 1..30
   // Draco encoder speed 0 (best) .. 10 (fastest). 10 selects sequential
   // connectivity, which keeps every face and vertex as given; 0..9 select

@@ -24,6 +24,13 @@ void append_float(std::string* out, float v) {
   out->append(buf, end);
 }
 
+void append_double(std::string* out, double v) {
+  char buf[32];
+  auto [end, ec] = std::to_chars(buf, buf + sizeof buf, v);
+  (void)ec;  // 32 bytes always hold a double
+  out->append(buf, end);
+}
+
 void append_uint(std::string* out, uint64_t v) {
   char buf[24];
   auto [end, ec] = std::to_chars(buf, buf + sizeof buf, v);
@@ -38,31 +45,32 @@ StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& lim
   const char* end = begin + size;
   if (size >= 3 && std::memcmp(begin, "\xEF\xBB\xBF", 3) == 0) begin += 3;  // UTF-8 byte order mark
 
-  Mesh mesh;
+  Mesh mesh;                      // faces; positions come from `positions` at the end
+  std::vector<double> positions;  // as written, in double
   LineReader lines(begin, end);
   std::string_view line;
   while (lines.next(&line)) {
     std::string_view rest = line;
     const std::string_view key = next_token(&rest);
     if (key == "v") {
-      float xyz[3];
+      double xyz[3];
       for (int k = 0; k < 3; ++k) {
         const std::string_view token = next_token(&rest);
         if (token.empty())
           return invalid_argument(at_line(lines.line_number()) + "vertex has " + std::to_string(k) +
                                   " coordinates, 3 are needed");
-        if (!parse_float(token, &xyz[k]))
+        if (!parse_double(token, &xyz[k]))
           return invalid_argument(at_line(lines.line_number()) + "vertex coordinate " + quote(token) +
                                   " is not a number");
       }
       // A fourth w or r g b colors may follow; they do not change the position.
-      if (mesh.vertex_count() >= limits.max_vertices)
+      if (positions.size() / 3 >= limits.max_vertices)
         return resource_exhausted(at_line(lines.line_number()) + "the file has more than " +
                                   std::to_string(limits.max_vertices) + " vertices (the limit is " +
                                   std::to_string(limits.max_vertices) + ")");
-      mesh.positions.insert(mesh.positions.end(), xyz, xyz + 3);
+      positions.insert(positions.end(), xyz, xyz + 3);
     } else if (key == "f") {
-      const int64_t nv = int64_t(mesh.vertex_count());
+      const int64_t nv = int64_t(positions.size() / 3);
       uint32_t first = 0, prev = 0;
       size_t corners = 0;
       for (std::string_view token = next_token(&rest); !token.empty(); token = next_token(&rest)) {
@@ -96,7 +104,7 @@ StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& lim
                                 " vertices, at least 3 are needed");
     }
   }
-  return mesh;
+  return mesh_from_absolute(positions, std::move(mesh.indices));
 }
 
 std::vector<uint8_t> encode_obj(const Mesh& mesh, const float* saliency) {
@@ -107,13 +115,19 @@ std::vector<uint8_t> encode_obj(const Mesh& mesh, const float* saliency) {
   out += " vertices, ";
   append_uint(&out, mesh.face_count());
   out += saliency ? " triangles, vertex colors show saliency\n" : " triangles\n";
+  // Floats where they hold the model to 1e-6 of its size, else the origin
+  // plus the relative float in double, as many digits as that takes.
+  const bool as_float = absolute_fits_float(mesh);
+  const std::vector<float> absolute = as_float ? absolute_positions(mesh) : std::vector<float>();
   for (size_t i = 0; i < mesh.vertex_count(); ++i) {
-    out += "v ";
-    append_float(&out, mesh.positions[3 * i]);
-    out += ' ';
-    append_float(&out, mesh.positions[3 * i + 1]);
-    out += ' ';
-    append_float(&out, mesh.positions[3 * i + 2]);
+    out += "v";
+    for (int a = 0; a < 3; ++a) {
+      out += ' ';
+      if (as_float)
+        append_float(&out, absolute[3 * i + size_t(a)]);
+      else
+        append_double(&out, mesh.absolute(i, a));
+    }
     if (saliency) {
       uint8_t rgb[3];
       saliency_color(saliency[i], rgb);

@@ -100,8 +100,9 @@ StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& lim
                               std::to_string(limits.max_faces));
 
   Mesh mesh;
+  std::vector<double> positions;
   // A vertex line is at least "0 0 0\n" (6 bytes), a face line "3 0 0 0\n".
-  mesh.positions.reserve(3 * std::min<uint64_t>(nv, size / 6 + 1));
+  positions.reserve(3 * std::min<uint64_t>(nv, size / 6 + 1));
   mesh.indices.reserve(3 * std::min<uint64_t>(nf, size / 8 + 1));
   for (uint64_t i = 0; i < nv; ++i) {
     if (!lines.next(&line))
@@ -109,14 +110,14 @@ StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& lim
     rest = line;
     for (int k = 0; k < 3; ++k) {
       const std::string_view token = next_token(&rest);
-      float v = 0;
+      double v = 0;
       if (token.empty())
         return invalid_argument(at_line(lines.line_number()) + "vertex " + std::to_string(i) + " has " +
                                 std::to_string(k) + " coordinates, 3 are needed");
-      if (!parse_float(token, &v))
+      if (!parse_double(token, &v))
         return invalid_argument(at_line(lines.line_number()) + "vertex coordinate " + quote(token) +
                                 " is not a number");
-      mesh.positions.push_back(v);
+      positions.push_back(v);
     }
   }
   for (uint64_t i = 0; i < nf; ++i) {
@@ -149,7 +150,7 @@ StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& lim
     }
     // Anything after the indices is a face color; ignored.
   }
-  return mesh;
+  return mesh_from_absolute(positions, std::move(mesh.indices));
 }
 
 }  // namespace vpr::io_detail

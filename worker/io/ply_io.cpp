@@ -328,7 +328,7 @@ Status read_property(Source& src, const PlyElement& e, const PlyProperty& p, uin
 
 template <class Source>
 Status read_body(Source& src, const PlyHeader& header, bool ascii, const MeshLimits& limits, Mesh* mesh,
-                 std::vector<float>* saliency) {
+                 std::vector<double>* positions, std::vector<float>* saliency) {
   const PlyElement* vertex = nullptr;
   for (const PlyElement& e : header.elements) {
     if (e.name == "vertex") {
@@ -362,16 +362,14 @@ Status read_body(Source& src, const PlyHeader& header, bool ascii, const MeshLim
         if (!have[r])
           return invalid_argument(std::string("PLY: the vertex element has no '") + kRoleNames[r] + "' property");
       }
-      mesh->positions.reserve(3 * plausible);
+      positions->reserve(3 * plausible);
       const bool want_saliency = saliency && have[3];
       if (want_saliency) saliency->reserve(plausible);
       for (uint64_t i = 0; i < e.count; ++i) {
         double v[4] = {0, 0, 0, 0};
         for (size_t j = 0; j < e.properties.size(); ++j)
           VPR_RETURN_IF_ERROR(read_property(src, e, e.properties[j], i, roles[j] >= 0 ? &v[roles[j]] : nullptr));
-        mesh->positions.push_back(to_float(v[0]));
-        mesh->positions.push_back(to_float(v[1]));
-        mesh->positions.push_back(to_float(v[2]));
+        positions->insert(positions->end(), v, v + 3);
         if (want_saliency) saliency->push_back(to_float(v[3]));
       }
     } else if (e.name == "face" && !seen_face) {
@@ -446,39 +444,56 @@ void put_f32(std::vector<uint8_t>* out, float f) {
   put_u32(out, v);
 }
 
+void put_f64(std::vector<uint8_t>* out, double d) {
+  uint64_t v;
+  std::memcpy(&v, &d, 8);
+  put_u32(out, uint32_t(v));
+  put_u32(out, uint32_t(v >> 32));
+}
+
 }  // namespace
 
 StatusOr<Mesh> parse_ply(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency) {
   const char* begin = reinterpret_cast<const char*>(data);
   const char* end = begin + size;
   VPR_ASSIGN_OR_RETURN(const PlyHeader header, parse_ply_header(begin, end, limits));
-  Mesh mesh;
+  Mesh mesh;  // faces; positions in double until the end
+  std::vector<double> positions;
   std::vector<float> values;
   if (header.encoding == PlyEncoding::kAscii) {
     AsciiSource src(begin + header.body_offset, end, header.body_line);
-    VPR_RETURN_IF_ERROR(read_body(src, header, true, limits, &mesh, &values));
+    VPR_RETURN_IF_ERROR(read_body(src, header, true, limits, &mesh, &positions, &values));
   } else {
     BinarySource src(data + header.body_offset, data + size, header.encoding == PlyEncoding::kBinaryBigEndian);
-    VPR_RETURN_IF_ERROR(read_body(src, header, false, limits, &mesh, &values));
+    VPR_RETURN_IF_ERROR(read_body(src, header, false, limits, &mesh, &positions, &values));
   }
   if (saliency) *saliency = std::move(values);
-  return mesh;
+  return mesh_from_absolute(positions, std::move(mesh.indices));
 }
 
 std::vector<uint8_t> encode_ply(const Mesh& mesh, const float* saliency) {
   const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
   std::string header = "ply\nformat binary_little_endian 1.0\ncomment vpremesh\n";
   header += "element vertex " + std::to_string(nv) + "\n";
-  header += "property float x\nproperty float y\nproperty float z\n";
+  // Floats where they hold the model to 1e-6 of its size, else doubles.
+  const bool as_float = absolute_fits_float(mesh);
+  header += as_float ? "property float x\nproperty float y\nproperty float z\n"
+                     : "property double x\nproperty double y\nproperty double z\n";
   if (saliency) header += "property float saliency\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n";
   header += "element face " + std::to_string(nf) + "\n";
   header += "property list uchar uint vertex_indices\nend_header\n";
 
   std::vector<uint8_t> out;
-  out.reserve(header.size() + nv * (saliency ? 19 : 12) + nf * 13);
+  out.reserve(header.size() + nv * ((as_float ? 12 : 24) + (saliency ? 7 : 0)) + nf * 13);
   put_bytes(&out, header.data(), header.size());
+  const std::vector<float> absolute = as_float ? absolute_positions(mesh) : std::vector<float>();
   for (size_t i = 0; i < nv; ++i) {
-    for (int a = 0; a < 3; ++a) put_f32(&out, mesh.positions[3 * i + a]);
+    for (int a = 0; a < 3; ++a) {
+      if (as_float)
+        put_f32(&out, absolute[3 * i + size_t(a)]);
+      else
+        put_f64(&out, mesh.absolute(i, a));
+    }
     if (saliency) {
       put_f32(&out, saliency[i]);
       uint8_t rgb[3];

@@ -15,7 +15,7 @@ namespace vpr::io_detail {
 namespace {
 
 struct PositionKey {
-  uint32_t bits[3];
+  uint64_t bits[3];
   bool operator==(const PositionKey& o) const {
     return bits[0] == o.bits[0] && bits[1] == o.bits[1] && bits[2] == o.bits[2];
   }
@@ -24,28 +24,29 @@ struct PositionKey {
 struct PositionKeyHash {
   size_t operator()(const PositionKey& k) const {
     uint64_t h = 0x9E3779B97F4A7C15ull;
-    for (uint32_t b : k.bits) h = (h ^ b) * 0xBF58476D1CE4E5B9ull;
+    for (uint64_t b : k.bits) h = (h ^ b) * 0xBF58476D1CE4E5B9ull;
     return size_t(h ^ (h >> 31));
   }
 };
 
 class VertexMerger {
  public:
-  VertexMerger(Mesh* mesh, size_t expected) : mesh_(mesh) { map_.reserve(expected); }
-  uint32_t add(const float p[3]) {
+  // positions: receives x, y, z of each distinct position, in double.
+  VertexMerger(std::vector<double>* positions, size_t expected) : positions_(positions) { map_.reserve(expected); }
+  uint32_t add(const double p[3]) {
     PositionKey key;
     for (int a = 0; a < 3; ++a) {
       // -0 and +0 are the same position.
-      const float v = p[a] == 0.0f ? 0.0f : p[a];
-      std::memcpy(&key.bits[a], &v, 4);
+      const double v = p[a] == 0.0 ? 0.0 : p[a];
+      std::memcpy(&key.bits[a], &v, 8);
     }
-    auto [it, inserted] = map_.try_emplace(key, uint32_t(mesh_->vertex_count()));
-    if (inserted) mesh_->positions.insert(mesh_->positions.end(), p, p + 3);
+    auto [it, inserted] = map_.try_emplace(key, uint32_t(positions_->size() / 3));
+    if (inserted) positions_->insert(positions_->end(), p, p + 3);
     return it->second;
   }
 
  private:
-  Mesh* mesh_;
+  std::vector<double>* positions_;
   std::unordered_map<PositionKey, uint32_t, PositionKeyHash> map_;
 };
 
@@ -75,22 +76,24 @@ Status too_many_facets(uint64_t n, const MeshLimits& limits) {
 StatusOr<Mesh> parse_binary_stl(const uint8_t* data, uint32_t n, const MeshLimits& limits) {
   if (n > limits.max_faces) return too_many_facets(n, limits);
   Mesh mesh;
+  std::vector<double> positions;
   mesh.indices.reserve(3 * size_t(n));
-  VertexMerger merger(&mesh, size_t(n) / 2 + 1);  // closed meshes have about n/2 vertices
+  VertexMerger merger(&positions, size_t(n) / 2 + 1);  // closed meshes have about n/2 vertices
   const uint8_t* p = data + 84;
   for (uint32_t f = 0; f < n; ++f, p += 50) {
     // 12 bytes of normal, 3 x 12 bytes of corners, 2 attribute bytes.
     for (int c = 0; c < 3; ++c) {
-      const float xyz[3] = {load_f32_le(p + 12 + 12 * c), load_f32_le(p + 16 + 12 * c), load_f32_le(p + 20 + 12 * c)};
+      const double xyz[3] = {load_f32_le(p + 12 + 12 * c), load_f32_le(p + 16 + 12 * c), load_f32_le(p + 20 + 12 * c)};
       mesh.indices.push_back(merger.add(xyz));
     }
   }
-  return mesh;
+  return mesh_from_absolute(positions, std::move(mesh.indices));
 }
 
 StatusOr<Mesh> parse_ascii_stl(const char* begin, const char* end, const MeshLimits& limits) {
   Mesh mesh;
-  VertexMerger merger(&mesh, 0);
+  std::vector<double> positions;
+  VertexMerger merger(&positions, 0);
   TokenReader tokens(begin, end);
   std::string_view token;
   tokens.next(&token);  // "solid" (checked by the caller)
@@ -106,12 +109,12 @@ StatusOr<Mesh> parse_ascii_stl(const char* begin, const char* end, const MeshLim
     } else if (iequals(token, "facet") || iequals(token, "solid")) {
       closed = false;
     } else if (iequals(token, "vertex")) {
-      float xyz[3];
+      double xyz[3];
       for (int k = 0; k < 3; ++k) {
         std::string_view value;
         if (!tokens.next(&value))
           return invalid_argument("STL: file ends inside a vertex (line " + std::to_string(tokens.line_number()) + ")");
-        if (!parse_float(value, &xyz[k]))
+        if (!parse_double(value, &xyz[k]))
           return invalid_argument("STL line " + std::to_string(tokens.line_number()) + ": vertex coordinate " +
                                   quote(value) + " is not a number");
       }
@@ -136,7 +139,7 @@ StatusOr<Mesh> parse_ascii_stl(const char* begin, const char* end, const MeshLim
   if (!closed)
     return invalid_argument("STL: the file ends after " + std::to_string(mesh.face_count()) +
                             " triangles without 'endsolid' (truncated?)");
-  return mesh;
+  return mesh_from_absolute(positions, std::move(mesh.indices));
 }
 
 }  // namespace

@@ -118,6 +118,8 @@ StatusOr<PeerResult> cgal_isotropic_remesh(const Mesh& input, uint32_t target_ve
     }
     result.core_ms = core_ms;
     result.mesh = to_mesh(best);
+    result.mesh.origin = input.origin;  // positions stay in the input's frame
+    result.mesh.scale = input.scale;
     char note[200];
     std::snprintf(note, sizeof note, "edge length %.4g (%.3g of the bbox diagonal) after %d run%s, %+.2f%% vertices",
                   best_length, best_length / bounding_box(input).diagonal(), std::min(runs + 1, options.max_runs),

@@ -74,6 +74,8 @@ StatusOr<PeerResult> meshopt_simplify(const Mesh& input, uint32_t target_vertice
   }
   result.core_ms = ms_since(core_start);
   result.mesh = compact(positions, std::vector<uint32_t>(best.begin(), best.end()));
+  result.mesh.origin = input.origin;  // positions stay in the input's frame
+  result.mesh.scale = input.scale;
   result.ms = ms_since(start);
   char note[160];
   std::snprintf(note, sizeof note, "landed on %zu vertices (target %u, %+.2f%%) after %d run%s", best_vertices,

@@ -62,6 +62,8 @@ StatusOr<PeerResult> openmesh_quadric(const Mesh& unwelded, uint32_t target_vert
   for (const auto& f : mesh.faces())
     for (const auto& v : f.vertices()) indices.push_back(uint32_t(v.idx()));
   result.mesh = compact(positions, indices);
+  result.mesh.origin = input.origin;  // positions stay in the input's frame
+  result.mesh.scale = input.scale;
   result.ms = ms_since(start);
   if (refused)
     result.note = "refused " + std::to_string(refused) + " of " + std::to_string(input.face_count()) +

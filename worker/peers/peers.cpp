@@ -46,6 +46,8 @@ Mesh weld_exact(const Mesh& mesh) {
   }
   out.indices.reserve(mesh.indices.size());
   for (uint32_t i : mesh.indices) out.indices.push_back(id[i]);
+  out.origin = mesh.origin;
+  out.scale = mesh.scale;
   return out;
 }
 

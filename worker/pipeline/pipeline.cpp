@@ -115,10 +115,14 @@ double target_spacing(double area, uint32_t count) {
 // The pipeline runs on a copy of the input centred on its bounding box and
 // scaled to a unit diagonal, so that no tolerance anywhere (CGAL, FLANN,
 // AWLOP's guards, the renderer's depth range) depends on the model's units:
-// a model in micrometres or in light years remeshes like one in metres.
+// a model in micrometres or in light years remeshes like one in metres. The
+// input's positions are already relative to its origin (mesh.h), so a model
+// far from zero loses nothing either.
 struct Normalization {
-  double center[3] = {0, 0, 0};
-  double scale = 1;  // model units per normalized unit
+  double center[3] = {0, 0, 0};  // relative to origin
+  double scale = 1;              // model units per normalized unit
+  std::array<double, 3> origin{0, 0, 0};  // the input's frame (mesh.h)
+  double frame_scale = 1;
 };
 
 StatusOr<Mesh> normalized_copy(const Mesh& input, Normalization* norm) {
@@ -135,6 +139,8 @@ StatusOr<Mesh> normalized_copy(const Mesh& input, Normalization* norm) {
     diag2 += (hi[a] - lo[a]) * (hi[a] - lo[a]);
   }
   norm->scale = std::sqrt(diag2);
+  norm->origin = input.origin;
+  norm->frame_scale = input.scale;
   if (!(norm->scale > 0)) return invalid_argument("degenerate mesh: all vertices coincide");
   Mesh out;
   out.indices = input.indices;
@@ -167,9 +173,31 @@ bool has_no_boundary(const Mesh& mesh) {
   return true;
 }
 
+// Back to the input's frame: relative to its origin.
 void denormalize(const Normalization& norm, std::vector<float>* positions) {
   for (size_t i = 0; i < positions->size(); ++i)
     (*positions)[i] = float(double((*positions)[i]) * norm.scale + norm.center[i % 3]);
+}
+
+// Back to the input's units, origin included (points handed out as floats).
+void to_model_units(const Normalization& norm, std::vector<float>* positions) {
+  for (size_t i = 0; i < positions->size(); ++i)
+    (*positions)[i] =
+        float((double((*positions)[i]) * norm.scale + norm.center[i % 3]) * norm.frame_scale + norm.origin[i % 3]);
+}
+
+// The output in the input's frame, and the field on every input vertex again
+// (used: input vertex of each compacted one, empty when none was dropped;
+// dropped vertices get the field's floor).
+void finish_output(const Normalization& norm, const std::vector<uint32_t>& used, size_t input_vertices,
+                   float floor_value, PipelineResult* result) {
+  denormalize(norm, &result->mesh.positions);
+  result->mesh.origin = norm.origin;
+  result->mesh.scale = norm.frame_scale;
+  if (used.empty()) return;
+  std::vector<float> field(input_vertices, floor_value);
+  for (size_t v = 0; v < used.size(); ++v) field[used[v]] = result->input_importance[v];
+  result->input_importance = std::move(field);
 }
 
 }  // namespace
@@ -205,11 +233,21 @@ Status validate_options(const PipelineOptions& o) {
   return Status::Ok();
 }
 
-StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOptions& options) {
+StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& options) {
   VPR_RETURN_IF_ERROR(validate_options(options));
-  VPR_RETURN_IF_ERROR(validate_mesh(original));
+  VPR_RETURN_IF_ERROR(validate_mesh(given));
+  // Vertices no face uses (exporters leave them behind) take no part: not in
+  // the framing, the orientation, the field or the sampling.
+  Mesh compacted;
+  std::vector<uint32_t> used;
+  size_t ignored = 0;
+  if (unreferenced_vertex_count(given) > 0) {
+    compacted = given;
+    ignored = remove_unreferenced_vertices(&compacted, &used);
+  }
   Normalization norm;
-  VPR_ASSIGN_OR_RETURN(const Mesh input, normalized_copy(original, &norm));
+  VPR_ASSIGN_OR_RETURN(const Mesh input, normalized_copy(ignored > 0 ? compacted : given, &norm));
+  compacted = Mesh();
 
   const auto job_start = Clock::now();
   VPR_ASSIGN_OR_RETURN(const std::unique_ptr<JobDevice> device,
@@ -217,6 +255,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
   const ExecContext ctx;  // stages without a GPU twin
   const std::string cpu = "cpu";
   PipelineResult result;
+  result.ignored_vertices = ignored;
   result.device = device->description();
   result.cpu_reason = device->cpu_reason();
   StageRunner stage(options, &result);
@@ -303,7 +342,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
   result.saliency_points = saliency_points.size() / 3;
   if (options.keep_saliency_points) {
     result.saliency_point_positions = saliency_points;
-    denormalize(norm, &result.saliency_point_positions);
+    to_model_units(norm, &result.saliency_point_positions);
   }
 
   if (!options.debug_dir.empty()) {
@@ -313,7 +352,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
       if (ec) return invalid_argument("cannot create debug directory " + options.debug_dir + ": " + ec.message());
       for (size_t v = 0; v < views.size(); ++v) {
         std::vector<float> model_points = view_points[v];  // in the input's units, to overlay on it
-        denormalize(norm, &model_points);
+        to_model_units(norm, &model_points);
         VPR_RETURN_IF_ERROR(write_view_debug(options.debug_dir, views[v], snapshots[v], features[v], model_points));
       }
       return Status::Ok();
@@ -457,7 +496,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
           },
           &note));
       result.back_half = std::string("surface CVT (") + density_mode_name(options.density) + " density)";
-      denormalize(norm, &result.mesh.positions);
+      finish_output(norm, used, given.vertex_count(), options.field.min_importance, &result);
       result.total_ms = ms_since(job_start);
       return result;
     }
@@ -516,7 +555,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& original, const PipelineOption
     return Status::Ok();
   }));
 
-  denormalize(norm, &result.mesh.positions);
+  finish_output(norm, used, given.vertex_count(), options.field.min_importance, &result);
   result.total_ms = ms_since(job_start);
   return result;
 }

@@ -90,10 +90,13 @@ struct PipelineOptions {
 };
 
 struct PipelineResult {
-  Mesh mesh;                            // the remeshed surface
+  Mesh mesh;                            // the remeshed surface, in the input's frame (its origin)
   std::vector<float> saliency;          // #V_out importance values in [min_importance, 1]
   std::vector<float> input_importance;  // #V_in: the saliency field on the input mesh
   size_t saliency_points = 0;           // 3D points unprojected from feature pixels
+  // Input vertices no face uses: left out of every stage (their field value
+  // in input_importance is the field's floor).
+  size_t ignored_vertices = 0;
   // x, y, z per saliency point, in the input's units; only with
   // PipelineOptions::keep_saliency_points (empty otherwise).
   std::vector<float> saliency_point_positions;
