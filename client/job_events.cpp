@@ -167,6 +167,7 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
   result.renderer = o.summary.renderer();
   result.saliency_points = o.summary.saliency_points();
   result.ignored_vertices = o.summary.ignored_vertices();
+  result.dropped_parts = o.summary.dropped_parts();
   RunSummary summary;
   summary.input_vertices = o.summary.input_vertices();
   summary.input_faces = o.summary.input_faces();

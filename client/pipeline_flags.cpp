@@ -40,6 +40,11 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--attention-sigma", o.attention.coarse_sigma,
                   "Attention field: coarse curvature scale, a fraction of the bounding-box diagonal")
       ->capture_default_str();
+  cmd->add_option("--drop-parts-smaller-than", o.drop_parts_smaller_than,
+                  "Leave out connected parts whose bounding-box diagonal is below this share of the model's "
+                  "(0: keep every part)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   cmd->add_option("--density", values.density,
                   "Vertex density: curvature (CVT on the surface, denser where curved), perception (curvature x the attention "
                   "field), uniform, or "

@@ -50,6 +50,8 @@ std::string format_stage_table(const PipelineResult& result, const RunSummary& s
   out += footer;
   if (result.ignored_vertices > 0)
     out += std::to_string(result.ignored_vertices) + " input vertices no face uses were ignored\n";
+  if (result.dropped_parts > 0)
+    out += std::to_string(result.dropped_parts) + " parts smaller than --drop-parts-smaller-than were left out\n";
   return out;
 }
 
@@ -80,6 +82,7 @@ nlohmann::json report_json(const PipelineResult& result, const RunSummary& s) {
       {"renderer", result.renderer},
       {"saliency_points", result.saliency_points},
       {"ignored_vertices", result.ignored_vertices},
+      {"dropped_parts", result.dropped_parts},
       {"stages", stages},
       {"total_ms", total},
       {"back_half", result.back_half},

@@ -113,6 +113,10 @@ Status pipeline_options_from_proto(const v1::PipelineOptions& p, PipelineOptions
   }
   VPR_RETURN_IF_ERROR(float_field("options.awlop_h_factor", p.awlop_h_factor(), 0, true, 100, false, d.awlop.h_factor,
                                   &o.awlop.h_factor));
+  float drop = 0;
+  VPR_RETURN_IF_ERROR(float_field("options.drop_parts_smaller_than", p.drop_parts_smaller_than(), 0, true, 1, false,
+                                  0.0f, &drop));
+  o.drop_parts_smaller_than = drop;
   if (p.density().empty()) {
     o.density = d.density;
   } else {
@@ -188,6 +192,7 @@ StatusOr<v1::PipelineOptions> pipeline_options_to_proto(const PipelineOptions& o
   p.set_awlop_support(o.awlop.support == AwlopSupport::kPaper ? v1::AWLOP_SUPPORT_PAPER : v1::AWLOP_SUPPORT_TARGET);
   p.set_awlop_h_factor(o.awlop.h_factor);
   p.set_density(density_mode_name(o.density));
+  p.set_drop_parts_smaller_than(float(o.drop_parts_smaller_than));
   // Negative ints cast to uint32 above would wrap: check the result on the way back.
   PipelineOptions check = o;
   VPR_RETURN_IF_ERROR(pipeline_options_from_proto(p, &check));

@@ -267,6 +267,32 @@ TEST(Pipeline, ManySpheresOfManySizesKeepEveryPartClosedAndInPlace) {
   for (int i = 0; i < kParts; ++i) EXPECT_GE(per_sphere[i], 12) << "sphere " << i << " (radius " << spheres[i][3] << ")";
 }
 
+// --drop-parts-smaller-than leaves out only what the user names; by default
+// a speck 1% of the model's size stays.
+TEST(Pipeline, DropsSmallPartsOnlyWhenAsked) {
+  Mesh kit = testing::icosphere(3);
+  const Mesh speck = testing::icosphere(1, 0.01f);
+  const uint32_t base = uint32_t(kit.vertex_count());
+  for (size_t v = 0; v < speck.vertex_count(); ++v)
+    for (int a = 0; a < 3; ++a) kit.positions.push_back(speck.positions[3 * v + a] + (a == 0 ? 2.0f : 0.0f));
+  for (uint32_t idx : speck.indices) kit.indices.push_back(base + idx);
+
+  auto kept = run_pipeline(kit, default_options(400));
+  ASSERT_TRUE(kept.ok()) << kept.status().to_string();
+  EXPECT_EQ(mesh_quality(kept->mesh).components, 2u);
+  EXPECT_EQ(kept->dropped_parts, 0u);
+
+  PipelineOptions o = default_options(400);
+  o.drop_parts_smaller_than = 0.02;  // the speck's diagonal is 0.035 / 3.5 = 1% of the model's
+  auto dropped = run_pipeline(kit, o);
+  ASSERT_TRUE(dropped.ok()) << dropped.status().to_string();
+  EXPECT_EQ(mesh_quality(dropped->mesh).components, 1u);
+  EXPECT_EQ(dropped->dropped_parts, 1u);
+  EXPECT_EQ(dropped->ignored_vertices, speck.vertex_count());
+  EXPECT_NEAR(double(dropped->mesh.vertex_count()), 400.0, 8.0);
+  for (size_t v = 0; v < dropped->mesh.vertex_count(); ++v) ASSERT_LT(dropped->mesh.positions[3 * v], 1.5f);
+}
+
 TEST(Pipeline, StopsAtAStageBoundaryWhenCancelled) {
   const Mesh sphere = testing::icosphere(3);
   PipelineOptions o = default_options(500);

@@ -1,5 +1,6 @@
 #include "pipeline.h"
 
+#include "core/mesh_parts.h"
 #include "surface/surface_refine.h"
 
 #include <tbb/blocked_range.h>
@@ -224,6 +225,8 @@ Status validate_options(const PipelineOptions& o) {
   if (!(o.field.min_importance > 0 && o.field.min_importance <= 1))
     return invalid_argument("min importance must be in (0, 1]");
   VPR_RETURN_IF_ERROR(check_attention_field_args(o.attention, 0, nullptr));
+  if (!(o.drop_parts_smaller_than >= 0 && o.drop_parts_smaller_than <= 1))
+    return invalid_argument("drop-parts-smaller-than must be a share of the model's diagonal in [0, 1]");
   if (!(o.awlop.mu >= 0 && o.awlop.mu <= 0.5)) return invalid_argument("mu must be in [0, 0.5]");
   if (o.awlop.k < 1 || o.awlop.k > 64) return invalid_argument("AWLOP k must be in [1, 64]");
   if (o.awlop.iterations < 0 || o.awlop.iterations > 200)
@@ -238,15 +241,23 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
   VPR_RETURN_IF_ERROR(validate_mesh(given));
   // Vertices no face uses (exporters leave them behind) take no part: not in
   // the framing, the orientation, the field or the sampling.
+  // Parts the user asked to drop lose their faces first, so their vertices
+  // are ignored like stray ones.
   Mesh compacted;
   std::vector<uint32_t> used;
-  size_t ignored = 0;
-  if (unreferenced_vertex_count(given) > 0) {
+  size_t ignored = 0, dropped_parts = 0;
+  if (options.drop_parts_smaller_than > 0) {
     compacted = given;
+    dropped_parts = drop_small_parts(&compacted, options.drop_parts_smaller_than);
+    if (dropped_parts == 0) compacted = Mesh();
+  }
+  const Mesh& source = dropped_parts > 0 ? compacted : given;
+  if (unreferenced_vertex_count(source) > 0) {
+    if (dropped_parts == 0) compacted = given;
     ignored = remove_unreferenced_vertices(&compacted, &used);
   }
   Normalization norm;
-  VPR_ASSIGN_OR_RETURN(const Mesh input, normalized_copy(ignored > 0 ? compacted : given, &norm));
+  VPR_ASSIGN_OR_RETURN(const Mesh input, normalized_copy(ignored > 0 || dropped_parts > 0 ? compacted : given, &norm));
   compacted = Mesh();
 
   const auto job_start = Clock::now();
@@ -256,6 +267,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
   const std::string cpu = "cpu";
   PipelineResult result;
   result.ignored_vertices = ignored;
+  result.dropped_parts = dropped_parts;
   result.device = device->description();
   result.cpu_reason = device->cpu_reason();
   StageRunner stage(options, &result);

@@ -79,6 +79,10 @@ struct PipelineOptions {
   // Keep the saliency points' positions in PipelineResult (the service
   // returns them on request; a local run does not pay for the copy).
   bool keep_saliency_points = false;
+  // Connected parts whose bounding-box diagonal is below this share of the
+  // model's are left out (`--drop-parts-smaller-than`); 0, the default, keeps
+  // every part (issue 19: parts are never dropped unless asked).
+  double drop_parts_smaller_than = 0;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
   // Called as each stage ends (from the pipeline's thread), e.g. to stream
@@ -97,6 +101,7 @@ struct PipelineResult {
   // Input vertices no face uses: left out of every stage (their field value
   // in input_importance is the field's floor).
   size_t ignored_vertices = 0;
+  size_t dropped_parts = 0;  // parts left out by drop_parts_smaller_than
   // x, y, z per saliency point, in the input's units; only with
   // PipelineOptions::keep_saliency_points (empty otherwise).
   std::vector<float> saliency_point_positions;
