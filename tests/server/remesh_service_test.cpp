@@ -164,8 +164,8 @@ TEST(RemeshService, RemeshStreamsTheSameResultAsVpremeshLocal) {
   }
   ASSERT_TRUE(out.events.back().has_completed());
   const v1::Completed& done = out.events.back().completed();
-  EXPECT_EQ(stages, (std::vector<std::string>{"views", "render", "image_saliency", "unproject", "saliency_field",
-                                              "density", "cvt", "meshing"}));
+  EXPECT_EQ(stages, (std::vector<std::string>{"views", "render", "image_saliency", "unproject", "visibility",
+                                              "saliency_field", "density", "cvt", "meshing"}));
   EXPECT_EQ(done.input_vertices(), 642u);
   EXPECT_EQ(done.result_bytes(), result.size());
   EXPECT_EQ(saliency.size(), done.output_vertices());
