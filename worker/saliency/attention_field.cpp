@@ -10,26 +10,16 @@
 #include <numeric>
 #include <string>
 
+#include "core/median.h"
+
 namespace vpr {
 namespace {
-
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 // x / median capped at `cap`; a median of 0 (mostly flat, CAD) takes the
 // median of the positive values instead, and all-flat gives 1 everywhere.
 std::vector<double> over_median(const float* x, size_t n, double cap) {
   std::vector<double> v(x, x + n);
-  double ref = median_of(v);
-  if (!(ref > 0)) {
-    std::vector<double> positive;
-    for (double t : v)
-      if (t > 0) positive.push_back(t);
-    ref = median_of(positive);
-  }
+  const double ref = typical_positive_value(v);
   for (double& t : v) t = ref > 0 ? std::min(t / ref, cap) : 1.0;
   return v;
 }

@@ -3,19 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/median.h"
 #include "core/vec3.h"
 
 namespace vpr {
-namespace {
-
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
-
-}  // namespace
-
 StatusOr<DensityMode> parse_density_mode(const std::string& name) {
   if (name == "perception") return DensityMode::kPerception;
   if (name == "curvature") return DensityMode::kCurvature;
@@ -93,13 +84,7 @@ std::vector<float> vertex_density(const std::vector<double>& h, const std::vecto
   const size_t nv = h.size();
   std::vector<float> d(nv, 1.0f);
   if (mode == DensityMode::kUniform || mode == DensityMode::kPaper) return d;
-  double ref = median_of(h);
-  if (!(ref > 0)) {  // mostly flat (CAD): the typical curved vertex sets the scale
-    std::vector<double> curved;
-    for (double x : h)
-      if (x > 0) curved.push_back(x);
-    ref = median_of(curved);
-  }
+  const double ref = typical_positive_value(h);  // mostly flat (CAD): the typical curved vertex sets the scale
   if (ref > 0)
     for (size_t v = 0; v < nv; ++v) d[v] = float(std::clamp(std::sqrt(h[v] / ref), 0.3, 3.0));
   if (mode == DensityMode::kPerception && importance.size() == nv) {
