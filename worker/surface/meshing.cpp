@@ -260,6 +260,13 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
   for (const Triangle& t : faces)
     for (int c = 0; c < 3; ++c) mesh.indices.push_back(uint32_t(t[c]));
 
+  // Facets through points on one line (or repeated points) survive the repair
+  // as faces of zero area; such a result is no surface, and saying so here
+  // keeps the promise that what these functions return passes validate_mesh.
+  if (mesh.indices.empty() || !(total_area(mesh) > 0.0))
+    return invalid_argument("meshing: no face of the " + std::to_string(n) +
+                            " points has a positive area (they lie on a line or repeat)");
+
   if (stats) {
     *stats = MeshingStats{};
     stats->points_in = n;
