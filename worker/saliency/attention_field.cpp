@@ -18,9 +18,16 @@ namespace {
 // x / median capped at `cap`; a median of 0 (mostly flat, CAD) takes the
 // median of the positive values instead, and all-flat gives 1 everywhere.
 std::vector<double> over_median(const float* x, size_t n, double cap) {
+  // A degenerate face's curvature can overflow (its weighted mean becomes
+  // inf): the median is taken over finite values, and an infinite value is
+  // as strong as a cue gets, the cap.
+  std::vector<double> finite;
+  finite.reserve(n);
+  for (size_t i = 0; i < n; ++i)
+    if (std::isfinite(x[i])) finite.push_back(x[i]);
+  const double ref = typical_positive_value(finite);
   std::vector<double> v(x, x + n);
-  const double ref = typical_positive_value(v);
-  for (double& t : v) t = ref > 0 ? std::min(t / ref, cap) : 1.0;
+  for (double& t : v) t = !std::isfinite(t) ? cap : ref > 0 ? std::min(t / ref, cap) : 1.0;
   return v;
 }
 
@@ -106,6 +113,9 @@ void finish_attention_field(const float* vertices, const float* curvature, const
     const double nearness = hi > lo ? (along[v] - lo) / (hi - lo) : 1.0;
     raw[v] = std::sqrt(0.5 * (fine[v] + wide[v])) * (1.0 - o.view_bias + o.view_bias * nearness);
     if (visibility) raw[v] *= std::clamp(double(visibility[v]), 0.0, 1.0);
+    // A cue that is not a number (the curvature of a face with a zero-length
+    // edge) counts as no cue: NaN would break the sort's ordering below.
+    if (!std::isfinite(raw[v])) raw[v] = 0.0;
   }
   // Rank normalization: equal raw values share their mean rank.
   std::vector<uint32_t> by_value(n);
@@ -114,7 +124,7 @@ void finish_attention_field(const float* vertices, const float* curvature, const
   importance->assign(n, 1.0f);
   const double span = 1.0 - double(o.min_importance);
   for (size_t i = 0; i < n;) {
-    size_t j = i;
+    size_t j = i + 1;
     while (j < n && raw[by_value[j]] == raw[by_value[i]]) ++j;
     const double rank = n > 1 ? 0.5 * double(i + j - 1) / double(n - 1) : 1.0;
     for (size_t t = i; t < j; ++t) (*importance)[by_value[t]] = float(o.min_importance + span * rank);
