@@ -86,7 +86,10 @@ std::vector<float> vertex_density(const std::vector<double>& h, const std::vecto
   if (mode == DensityMode::kUniform || mode == DensityMode::kPaper) return d;
   const double ref = typical_positive_value(h);  // mostly flat (CAD): the typical curved vertex sets the scale
   if (ref > 0)
-    for (size_t v = 0; v < nv; ++v) d[v] = float(std::clamp(std::sqrt(h[v] / ref), 0.3, 3.0));
+    for (size_t v = 0; v < nv; ++v) {
+      const double ratio = h[v] / ref;  // NaN only for inf / inf (a degenerate input): the strongest
+      d[v] = float(std::isnan(ratio) ? 3.0 : std::clamp(std::sqrt(ratio), 0.3, 3.0));
+    }
   if (mode == DensityMode::kPerception && importance.size() == nv) {
     std::vector<double> imp(importance.begin(), importance.end());
     const double mid = median_of(imp);
