@@ -178,6 +178,38 @@ class PackageTest(unittest.TestCase):
         self.assertEqual(caught.exception.code, grpc.StatusCode.CANCELLED)
         self.assertTrue(caught.exception.job_id)
 
+    def test_a_remesh_left_early_or_past_its_timeout_cancels_its_job(self):
+        class Stop(Exception):
+            pass
+
+        def stop_when_started(event):
+            if event.WhichOneof("event") == "started":
+                raise Stop(event.job_id)
+
+        with client() as c:
+            with self.assertRaises(Stop) as stopped:
+                c.remesh(ENV["VPR_LARGE"], 3000, progress=stop_when_started)
+            self.assertEqual(kinds(c.watch(stopped.exception.args[0]))[-1], "cancelled")
+            with self.assertRaises(vpremesh.Error) as caught:
+                c.remesh(ENV["VPR_LARGE"], 3000, timeout=1.0)
+            self.assertEqual(caught.exception.code, grpc.StatusCode.DEADLINE_EXCEEDED)
+            self.assertTrue(caught.exception.job_id)
+            last = list(c.watch(caught.exception.job_id))[-1]
+            self.assertIn(last.WhichOneof("event"), ("cancelled", "failed"))
+
+    def test_an_upload_passes_over_a_replica_that_is_down(self):
+        down = socket.create_server(("127.0.0.1", 0))  # a port nobody listens on once closed
+        down_address = f"127.0.0.1:{down.getsockname()[1]}"
+        down.close()
+        with client(address=[down_address, ENV["VPR_SERVER"]]) as c, \
+                self.assertLogs("vpremesh", logging.WARNING) as logs:
+            result = c.remesh(ENV["VPR_SMALL"], TARGET)
+            job = c.submit(ENV["VPR_SMALL"], TARGET)
+            self.assertEqual(kinds(c.watch(job))[-1], "completed")
+        self.assertEqual(len(result.saliency), result.summary.output_vertices)
+        self.assertIn(f"{down_address} does not accept connections; trying {ENV['VPR_SERVER']}", logs.output[0])
+        self.assertEqual(len([line for line in logs.output if "does not accept" in line]), 2)
+
     def test_watch_yields_every_event_in_order(self):
         with client() as c:
             job = c.submit(ENV["VPR_SMALL"], TARGET)

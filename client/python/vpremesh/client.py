@@ -5,7 +5,7 @@ import grpc
 
 from .errors import Error
 from .follower import follow
-from .replicas import Deadline, Replicas, credentials
+from .replicas import Deadline, Replicas, credentials, is_connection_failure, log
 from .result import Assembler
 from .spec import make_spec
 from .v1 import remesh_pb2
@@ -73,19 +73,22 @@ class Client:
         data = _read(mesh)
         spec = make_spec(target_vertices, len(data), options, "remesh")
         deadline = Deadline(timeout)
-        index = self._replicas.first_reachable(deadline)
 
-        def open_remesh():
-            ready = self._replicas.wait_for_ready(index, deadline)
-            return self._replicas.stub(index).Remesh(_requests(spec, data), metadata=self._metadata,
-                                                     timeout=deadline.left(), wait_for_ready=ready)
+        def open_remesh(i):
+            return self._replicas.stub(i).Remesh(_requests(spec, data), metadata=self._metadata,
+                                                 timeout=deadline.left(),
+                                                 wait_for_ready=self._replicas.wait_for_ready(deadline))
 
         assembler = Assembler()
-        for event in follow(self._replicas, self._metadata, open_remesh, index, "", deadline, self.reattach_timeout,
-                            cancel_at_deadline=True):
-            if progress is not None:
-                progress(event)
-            assembler.add(event)
+        events = follow(self._replicas, self._metadata, open_remesh, 0, "", deadline, self.reattach_timeout,
+                        cancel_at_deadline=True)
+        try:
+            for event in events:
+                if progress is not None:
+                    progress(event)
+                assembler.add(event)
+        finally:
+            events.close()  # at once, not when collected: an unfinished Remesh call cancels its job
         return assembler.result()
 
     def submit(self, mesh, target_vertices, *, timeout=None, **options):
@@ -94,13 +97,20 @@ class Client:
         data = _read(mesh)
         spec = make_spec(target_vertices, len(data), options, "submit")
         deadline = Deadline(timeout)
-        index = self._replicas.first_reachable(deadline)
-        ready = self._replicas.wait_for_ready(index, deadline)
-        try:
-            ref = self._replicas.stub(index).Submit(_requests(spec, data), metadata=self._metadata,
-                                                    timeout=deadline.left(), wait_for_ready=ready)
-        except grpc.RpcError as e:
-            raise Error.from_rpc(e, self._replicas.address(index)) from None
+        # The first replica, in list order, that accepts a connection: an
+        # upload that reached a server is never sent again (it could run the
+        # job twice).
+        for i in range(len(self._replicas)):
+            try:
+                ref = self._replicas.stub(i).Submit(_requests(spec, data), metadata=self._metadata,
+                                                    timeout=deadline.left(),
+                                                    wait_for_ready=self._replicas.wait_for_ready(deadline))
+                break
+            except grpc.RpcError as e:
+                if i + 1 == len(self._replicas) or not is_connection_failure(e):
+                    raise Error.from_rpc(e, self._replicas.address(i)) from None
+                log.warning("%s does not accept connections; trying %s", self._replicas.address(i),
+                            self._replicas.address(i + 1))
         return ref.job_id
 
     def watch(self, job_id, from_sequence=0, *, timeout=None):
@@ -113,10 +123,9 @@ class Client:
         deadline = Deadline(timeout)
         ref = remesh_pb2.JobRef(job_id=job_id, from_sequence=from_sequence)
 
-        def open_watch():
-            ready = self._replicas.wait_for_ready(0, deadline)
-            return self._replicas.stub(0).Watch(ref, metadata=self._metadata, timeout=deadline.left(),
-                                                wait_for_ready=ready)
+        def open_watch(i):
+            return self._replicas.stub(i).Watch(ref, metadata=self._metadata, timeout=deadline.left(),
+                                                wait_for_ready=self._replicas.wait_for_ready(deadline))
 
         return follow(self._replicas, self._metadata, open_watch, 0, job_id, deadline, self.reattach_timeout,
                       from_sequence=from_sequence)
@@ -137,9 +146,8 @@ class Client:
         ref = remesh_pb2.JobRef(job_id=job_id)
         for i in range(len(self._replicas)):
             try:
-                ready = self._replicas.wait_for_ready(i, deadline)
                 return getattr(self._replicas.stub(i), method)(ref, metadata=self._metadata, timeout=deadline.left(),
-                                                               wait_for_ready=ready)
+                                                               wait_for_ready=self._replicas.wait_for_ready(deadline))
             except grpc.RpcError as e:
                 if e.code() != grpc.StatusCode.UNAVAILABLE or i + 1 == len(self._replicas):
                     raise Error.from_rpc(e, self._replicas.address(i), job_id) from None

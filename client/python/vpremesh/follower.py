@@ -10,7 +10,7 @@ import time
 import grpc
 
 from .errors import Error
-from .replicas import log
+from .replicas import is_connection_failure, log
 from .v1 import remesh_pb2
 
 FIRST_BACKOFF_S = 0.1
@@ -20,8 +20,10 @@ TERMINAL = ("completed", "failed", "cancelled")
 
 def follow(replicas, metadata, open_first, index, job_id, deadline, reattach_timeout, from_sequence=0,
            cancel_at_deadline=False):
-    """Yields the job's events from the call open_first() makes to replica
-    `index`, then from the Watch calls that pick the job up after it.
+    """Yields the job's events from the call open_first(index) makes, then
+    from the Watch calls that pick the job up after it. A first call that
+    reached no server moves on to the next replica (an upload is never sent
+    twice to a server that may have had it).
 
     cancel_at_deadline: the Remesh call cancels its job when its deadline
     passes, a Watch that took over does not; with this the follower does.
@@ -30,7 +32,8 @@ def follow(replicas, metadata, open_first, index, job_id, deadline, reattach_tim
     reattaching = False
     lost_since = None  # the first loss since the last new event
     backoff = FIRST_BACKOFF_S
-    call = open_first()
+    passed_over = 0  # replicas the first call could not connect to
+    call = open_first(index)
     while True:
         before = next_sequence
         try:
@@ -60,11 +63,20 @@ def follow(replicas, metadata, open_first, index, job_id, deadline, reattach_tim
             _cancel_quietly(replicas, metadata, job_id, index)
         if code != grpc.StatusCode.UNAVAILABLE or reattach_timeout <= 0:
             raise Error.from_rpc(error, address, job_id)
+        if not job_id and passed_over + 1 < len(replicas) and is_connection_failure(error):
+            passed_over += 1
+            log.warning("%s does not accept connections; trying %s", address, replicas.address(index + 1))
+            index += 1
+            call = open_first(index)
+            continue
         if not job_id:
-            # Not retried: a new upload could run the job twice.
-            e = Error.from_rpc(error, address)
-            raise Error(e.code, f"{e.message}; lost {address} before the job's id came; "
-                                "the upload is not sent again")
+            # Not retried: a new upload could run the job twice. A transport
+            # failure names the address already; a server's own UNAVAILABLE
+            # (it is shutting down) does not, and gets the note.
+            if address in (error.details() or ""):
+                raise Error.from_rpc(error, address)
+            raise Error(code, f"{' '.join((error.details() or '').split())}; lost {address} before the job's id "
+                              "came; the upload is not sent again")
         now = time.monotonic()
         if lost_since is None or next_sequence != before:
             lost_since, backoff = now, FIRST_BACKOFF_S

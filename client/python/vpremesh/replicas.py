@@ -1,6 +1,10 @@
 """The servers a client may use: one address, or several replicas that serve
 the same jobs (a Redis queue), with a channel each, made when first used and
-kept. The counterpart of client/replicas.* and client/channel.* in C++."""
+kept. The counterpart of client/replicas.* and client/channel.* in C++.
+
+Reachability is learnt from calls, not from channel_ready_future: grpcio's
+connectivity polling thread fails ("Channel closed!") when a channel is
+closed while it runs."""
 import json
 import logging
 import os
@@ -29,12 +33,16 @@ _CHANNEL_OPTIONS = [
     ("grpc.enable_retries", 1),
     ("grpc.service_config", _SERVICE_CONFIG),
 ]
-# Long enough for a live server to accept a connection; short enough that a
-# replica whose host is gone does not hold an upload for long.
-_CONNECT_WAIT_S = 5
-# With one server and no timeout, how long the first call waits for it to
-# come up (client/channel.h: kConnectWaitWithoutDeadline).
-_FIRST_CONNECT_WAIT_S = 30
+# Words of gRPC's UNAVAILABLE messages when no connection was made, so that
+# no byte of an upload reached a server (client/grpc_errors.cpp). A reset or
+# a closed socket is not among them: the server may have had the upload.
+_NOT_CONNECTED = ("failed to connect", "Connection refused", "DNS resolution failed", "No route to host")
+
+
+def is_connection_failure(error):
+    """True when a grpc.RpcError says no server was reached."""
+    details = error.details() or ""
+    return error.code() == grpc.StatusCode.UNAVAILABLE and any(w in details for w in _NOT_CONNECTED)
 
 
 def _pem(value):
@@ -103,37 +111,14 @@ class Replicas:
         self.channel(i)
         return self._stubs[i % len(self)]
 
-    def _connects(self, i, wait_s):
-        try:
-            grpc.channel_ready_future(self.channel(i)).result(timeout=wait_s)
-            return True
-        except grpc.FutureTimeoutError:
-            return False
-
-    def wait_for_ready(self, i, deadline):
-        """For a call to replica i: with one server the call waits for it to
-        accept a connection, so a server that comes up a moment late does not
-        fail the call; with several an unreachable one is passed over instead.
-        The value for the call's wait_for_ready."""
-        if len(self) != 1:
-            return False
-        left = deadline.left()
-        return self._connects(i, _FIRST_CONNECT_WAIT_S if left is None else left)
-
-    def first_reachable(self, deadline):
-        """Where an upload goes: the first replica in list order that accepts a
-        connection within a few seconds (an upload that started is never sent
-        again: it could run the job twice). 0 with one address, or when none
-        connects: the call then reports its own error."""
-        if len(self) == 1:
-            return 0
-        for i in range(len(self)):
-            left = deadline.left()
-            if self._connects(i, _CONNECT_WAIT_S if left is None else min(_CONNECT_WAIT_S, left)):
-                return i
-            if i + 1 < len(self):
-                log.warning("%s does not accept connections; trying %s", self.addresses[i], self.addresses[i + 1])
-        return 0
+    def wait_for_ready(self, deadline):
+        """A call's wait_for_ready. With one server and a deadline, the call
+        waits for the server to accept a connection (one that comes up late
+        does not fail the call), as the C++ client does. Without a deadline it
+        does not (it could wait forever); uploads are still retried for a
+        couple of seconds (_SERVICE_CONFIG). With several servers an
+        unreachable one is passed over instead."""
+        return len(self) == 1 and deadline.at is not None
 
     def close(self):
         for c in self._channels:
