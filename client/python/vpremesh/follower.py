@@ -61,14 +61,14 @@ def follow(replicas, metadata, open_first, index, job_id, deadline, reattach_tim
         code = error.code()
         if code == grpc.StatusCode.DEADLINE_EXCEEDED and cancel_at_deadline and reattaching:
             _cancel_quietly(replicas, metadata, job_id, index)
-        if code != grpc.StatusCode.UNAVAILABLE or reattach_timeout <= 0:
-            raise Error.from_rpc(error, address, job_id)
         if not job_id and passed_over + 1 < len(replicas) and is_connection_failure(error):
             passed_over += 1
             log.warning("%s does not accept connections; trying %s", address, replicas.address(index + 1))
             index += 1
             call = open_first(index)
             continue
+        if code != grpc.StatusCode.UNAVAILABLE or reattach_timeout <= 0:
+            raise Error.from_rpc(error, address, job_id)
         if not job_id:
             # Not retried: a new upload could run the job twice. A transport
             # failure names the address already; a server's own UNAVAILABLE
