@@ -68,19 +68,22 @@ for _ in range(rounds):
         out = subprocess.run(command, check=True, capture_output=True, text=True).stdout
         wall_ms = 1e3 * (time.perf_counter() - start)
         report = json.loads(out)
-        runs[name].append({"wall": wall_ms, "client": wall_ms - report["server_total_ms"],
+        runs[name].append({"wall": wall_ms, "server": report["server_total_ms"],
+                           "client": wall_ms - report["server_total_ms"],
                            "import": report.get("import_ms"), "call": report.get("call_ms"),
                            "in_call": report.get("call_ms", 0) - report["server_total_ms"]})
 med = lambda name, key: statistics.median(r[key] for r in runs[name])
 print(f"{model.rsplit('/', 1)[-1]} -> {target} on {device}, one warm worker, embedded queue; "
       f"median of {rounds} alternating rounds")
 print()
-print("| client | wall (ms) | client side: wall - server total (ms) |")
-print("|---|---|---|")
+print("| client | wall (ms) | server total (ms) | client side: wall - server total (ms) |")
+print("|---|---|---|---|")
 for name in clients:
-    print(f"| {name} | {med(name, 'wall'):.0f} | {med(name, 'client'):.0f} |")
+    print(f"| {name} | {med(name, 'wall'):.0f} | {med(name, 'server'):.0f} | {med(name, 'client'):.0f} |")
 py = list(clients)[2]
 print()
+for name in clients:
+    print(f"{name}: server total per round (ms) " + ", ".join(f"{r['server']:.0f}" for r in runs[name]))
 print(f"Python: `import vpremesh` (grpc, protobuf, NumPy) {med(py, 'import'):.0f} ms; the remesh call "
       f"{med(py, 'call'):.0f} ms, of which {med(py, 'in_call'):.0f} ms client side (upload, channel, result).")
 PY
