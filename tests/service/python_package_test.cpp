@@ -62,6 +62,10 @@ TEST(PythonPackage, InstallsOfflineAndDrivesTheServer) {
   ServerProcess server({"--workers", "1", "--device", "cpu", "--auth-tokens", (dir / "tokens.txt").string(),
                         "--tls-cert", (dir / "server.pem").string(), "--tls-key", (dir / "server.key").string()});
   ASSERT_TRUE(server.started()) << server.log();
+  // Mutual TLS: only clients with a certificate signed by ca.pem get through.
+  ServerProcess mtls({"--workers", "1", "--device", "cpu", "--tls-cert", (dir / "server.pem").string(), "--tls-key",
+                      (dir / "server.key").string(), "--tls-client-ca", (dir / "ca.pem").string()});
+  ASSERT_TRUE(mtls.started()) << mtls.log();
 
   // --without-pip and the system's pip (--python) spare ensurepip's seconds;
   // --no-index proves no network is needed; --no-build-isolation builds with
@@ -71,13 +75,14 @@ TEST(PythonPackage, InstallsOfflineAndDrivesTheServer) {
   std::string log;
   ASSERT_EQ(run("'" VPR_PYTHON "' -m venv --system-site-packages --without-pip '" + venv + "'", &log), 0) << log;
   ASSERT_EQ(run("'" VPR_PYTHON "' -m pip --python '" + python +
-                    "' install --quiet --no-index --no-build-isolation --no-cache-dir '" +
+                    "' install --quiet --no-index --no-build-isolation --no-cache-dir --disable-pip-version-check '" +
                     (dir / "src" / "client" / "python").string() + "'",
                 &log),
             0)
       << log;
 
-  const std::string env = "VPR_SERVER=" + server.address() + " VPR_TOKEN=" + token +
+  const std::string env = "VPR_SERVER=" + server.address() + " VPR_MTLS_SERVER=" + mtls.address() +
+                          " VPR_CERTS=" + dir.string() + " VPR_TOKEN=" + token +
                           " VPR_TLS_CA=" + (dir / "ca.pem").string() + " VPR_SMALL=" + (dir / "small.drc").string() +
                           " VPR_LARGE=" + (dir / "large.drc").string() + " VPR_OUT=" + (dir / "out").string();
   const int code = run(env + " '" + python + "' '" VPR_SOURCE_DIR "/tests/service/python_package_test.py'", &log);

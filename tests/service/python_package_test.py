@@ -5,6 +5,8 @@ environment. The server asks for a token and speaks TLS; the harness passes:
   VPR_SERVER      HOST:PORT of the server (--workers 1)
   VPR_TOKEN       a valid tenant token
   VPR_TLS_CA      the CA that signed the server's certificate
+  VPR_MTLS_SERVER a server that also asks for a client certificate signed by that CA
+  VPR_CERTS       the folder of client.pem and client.key (signed by it)
   VPR_SMALL       a Draco sphere that remeshes in a moment
   VPR_LARGE       a Draco sphere whose job runs for a while
   VPR_OUT         a folder: result.drc and result.json for the harness to check
@@ -153,6 +155,16 @@ class PackageTest(unittest.TestCase):
             c.remesh(ENV["VPR_SMALL"], 10)
         self.assertEqual(caught.exception.code, grpc.StatusCode.INVALID_ARGUMENT)
         self.assertIn("target_vertices is 10", caught.exception.message)
+
+    def test_mutual_tls_needs_the_client_certificate(self):
+        certs = ENV["VPR_CERTS"]
+        with client(address=ENV["VPR_MTLS_SERVER"], token=None) as c, self.assertRaises(vpremesh.Error) as caught:
+            c.get("j-0000000000000000", timeout=2)  # waits for a handshake that keeps failing
+        self.assertIn(caught.exception.code, (grpc.StatusCode.UNAVAILABLE, grpc.StatusCode.DEADLINE_EXCEEDED))
+        with client(address=ENV["VPR_MTLS_SERVER"], token=None, tls_cert=os.path.join(certs, "client.pem"),
+                    tls_key=os.path.join(certs, "client.key")) as c, self.assertRaises(vpremesh.Error) as caught:
+            c.get("j-0000000000000000", timeout=10)
+        self.assertEqual(caught.exception.code, grpc.StatusCode.NOT_FOUND)  # the call reached the server
 
     def test_an_unknown_job_is_not_found(self):
         with client() as c, self.assertRaises(vpremesh.Error) as caught:
