@@ -12,6 +12,7 @@ packages=(
   libpng-dev nlohmann-json3-dev libcli11-dev libmeshoptimizer-dev
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   python3-grpcio python3-protobuf python3-yaml python3-numpy
+  python3-venv python3-pip python3-setuptools python3-wheel  # pip install ./client/python, offline
   redis-server libhiredis-dev libssl-dev openssl
 )
 # `install-deps.sh sanitize` (make sanitize, scripts/fuzz.sh): clang, its
