@@ -402,9 +402,12 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
     VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {
       if (curvature.empty()) curvature = mean_curvature(input);  // a CPU rerun after a GPU failure keeps it
       const std::vector<float> h(curvature.begin(), curvature.end());
+      // The image cue: the front half's saliency points (stage 3), in the
+      // same normalized space as the input's vertices.
+      const FeaturePoints features{saliency_points.data(), saliency_points.size() / 3};
       return VPR_TWIN(c, attention_field)(input.positions.data(), h.data(),
-                                          visibility.empty() ? nullptr : visibility.data(), input.vertex_count(),
-                                          options.attention, &result.input_importance, c);
+                                          visibility.empty() ? nullptr : visibility.data(), features,
+                                          input.vertex_count(), options.attention, &result.input_importance, c);
     }));
   }
 
