@@ -37,6 +37,9 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--view-bias", o.attention.view_bias,
                   "Attention field: weight of the front-top bias (+y up, +z front), 0 = off")
       ->capture_default_str();
+  cmd->add_option("--visibility-bias", o.visibility.view_bias,
+                  "Attention field: weight of the front-top views in the visibility cue (+y up, +z front), 0 = all alike")
+      ->capture_default_str();
   cmd->add_flag("--image-cue", values.image_cue,
                 "Attention field: add the image cue (the views' feature pixels near each vertex, weighted)");
   cmd->add_option("--attention-sigma", o.attention.coarse_sigma,

@@ -118,6 +118,16 @@ TEST_F(AttentionFieldGpu, VisibilityEqualsCpuOnRenderedViews) {
         cuda::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, {}, &gpu_vis, gpu_);
     ASSERT_TRUE(s.ok()) << s.to_string();
     EXPECT_EQ(gpu_vis, cpu_vis) << count << " views";
+    // Views weighted towards the front and top: the same weights, summed in the same order.
+    VisibilityOptions weighted;
+    weighted.view_bias = 0.75f;
+    ASSERT_TRUE(cpu::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, weighted, &cpu_vis,
+                                     kCpu)
+                    .ok());
+    ASSERT_TRUE(cuda::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, weighted, &gpu_vis,
+                                      gpu_)
+                    .ok());
+    EXPECT_EQ(gpu_vis, cpu_vis) << count << " views, weighted";
   }
 }
 
