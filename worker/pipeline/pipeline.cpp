@@ -225,6 +225,7 @@ Status validate_options(const PipelineOptions& o) {
   if (!(o.field.min_importance > 0 && o.field.min_importance <= 1))
     return invalid_argument("min importance must be in (0, 1]");
   VPR_RETURN_IF_ERROR(check_attention_field_args(o.attention, 0, nullptr));
+  VPR_RETURN_IF_ERROR(check_visibility_args({}, {}, o.visibility));  // its options only, before any work
   if (!(o.drop_parts_smaller_than >= 0 && o.drop_parts_smaller_than <= 1))
     return invalid_argument("drop-parts-smaller-than must be a share of the model's diagonal in [0, 1]");
   if (!(o.awlop.mu >= 0 && o.awlop.mu <= 0.5)) return invalid_argument("mu must be in [0, 0.5]");
