@@ -13,6 +13,7 @@ Command add_local_command(CLI::App& app);
 Command add_eval_command(CLI::App& app);
 Command add_compare_command(CLI::App& app);  // compare_command.cpp: ours against the peers
 Command add_peers_command(CLI::App& app);    // peers_command.cpp: the peers' meshes, for scripts/quality.sh
+Command add_field_sheet_command(CLI::App& app);  // field_sheet_command.cpp: a mesh coloured by fields, one PNG
 
 #ifdef VPR_HAVE_SERVICE_CLIENT
 // The service (submit_command.cpp, job_commands.cpp): jobs on a vpremesh-server.

@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   const vpr::cli::Command eval = vpr::cli::add_eval_command(app);
   const vpr::cli::Command compare = vpr::cli::add_compare_command(app);
   const vpr::cli::Command peers = vpr::cli::add_peers_command(app);
+  const vpr::cli::Command field_sheet = vpr::cli::add_field_sheet_command(app);
 #ifdef VPR_HAVE_SERVICE_CLIENT
   const vpr::cli::Command submit = vpr::cli::add_submit_command(app);
   const vpr::cli::Command status = vpr::cli::add_status_command(app);
@@ -29,6 +30,7 @@ int main(int argc, char** argv) {
   if (app.got_subcommand("eval")) return eval();
   if (app.got_subcommand("compare")) return compare();
   if (app.got_subcommand("peers")) return peers();
+  if (app.got_subcommand("field-sheet")) return field_sheet();
 #ifdef VPR_HAVE_SERVICE_CLIENT
   if (app.got_subcommand("submit")) return submit();
   if (app.got_subcommand("status")) return status();

@@ -37,6 +37,11 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--view-bias", o.attention.view_bias,
                   "Attention field: weight of the front-top bias (+y up, +z front), 0 = off")
       ->capture_default_str();
+  cmd->add_option("--visibility-bias", o.visibility.view_bias,
+                  "Attention field: weight of the front-top views in the visibility cue (+y up, +z front), 0 = all alike")
+      ->capture_default_str();
+  cmd->add_flag("--image-cue", values.image_cue,
+                "Attention field: add the image cue (the views' feature pixels near each vertex, weighted)");
   cmd->add_option("--attention-sigma", o.attention.coarse_sigma,
                   "Attention field: coarse curvature scale, a fraction of the bounding-box diagonal")
       ->capture_default_str();
@@ -57,6 +62,7 @@ Status apply_pipeline_flags(const PipelineFlagValues& values, PipelineOptions* o
   if (values.awlop_support == "paper") o->awlop.support = AwlopSupport::kPaper;
   o->density = parse_density_mode(values.density).value();
   o->views.pca_align = !values.no_pca;
+  o->attention.image_cue = values.image_cue;
   if (!values.rotation.empty()) {
     if (values.rotation.size() != 9) return invalid_argument("--rotation needs 9 numbers (row-major 3x3)");
     std::array<double, 9> r{};

@@ -15,6 +15,7 @@ struct PipelineFlagValues {
   std::string awlop_support = "target";
   std::string density = "curvature";
   bool no_pca = false;
+  bool image_cue = false;
   std::vector<double> rotation;
 };
 

@@ -6,6 +6,7 @@ keeps there (docs/perception.md; the measures of ../shared/gaze/README.md).
   gaze-score.py curvature GAZE.ply [...]          the same for |mean curvature|
   gaze-score.py share FIELD.ply [...]             share of vertices at the field's maximum
   gaze-score.py error GAZE.ply REMESH.ply         fixation-weighted and plain error
+  gaze-score.py fixation-field GAZE.ply OUT.ply   the fixation as a field, for vpremesh field-sheet
 
 GAZE.ply: a mesh of ../shared/gaze/ (vertex properties x y z fixation top5).
 FIELD.ply: the same mesh written by `vpremesh local --field-out`, vertices in
@@ -183,6 +184,48 @@ def surface_distance(q, p, f):
     return out
 
 
+def fixation_field(fixation):
+    """Fixation time as a field in [0, 1] drawn on the same ramp as ours: 0 where
+    nobody looked (blue), else 0.2 + 0.8 x its rank among the looked-at
+    vertices, the attention field's own floor and rank normalization (so the
+    two pictures compare orderings, not units; ties share their mean rank)."""
+    fixation = np.asarray(fixation, np.float64)
+    out = np.zeros(len(fixation))
+    seen = fixation > 0
+    n = int(seen.sum())
+    if n == 1:
+        out[seen] = 1.0
+    elif n > 1:
+        values = fixation[seen]
+        order = np.argsort(values, kind="mergesort")
+        sorted_values = values[order]
+        ranks = np.empty(n)
+        i = 0
+        while i < n:
+            j = i
+            while j < n and sorted_values[j] == sorted_values[i]:
+                j += 1
+            ranks[order[i:j]] = 0.5 * (i + j - 1)
+            i = j
+        out[seen] = 0.2 + 0.8 * ranks / (n - 1)
+    return out
+
+
+def write_field_ply(path, p, f, field):
+    """Binary PLY with x y z saliency and the triangles (the property vpremesh reads as a field)."""
+    v = np.zeros(len(p), np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("saliency", "<f4")]))
+    v["x"], v["y"], v["z"], v["saliency"] = p[:, 0], p[:, 1], p[:, 2], field
+    t = np.zeros(len(f), np.dtype([("n", "u1"), ("i", "<i4", 3)]))
+    t["n"], t["i"] = 3, f
+    header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(p)}\n"
+              "property float x\nproperty float y\nproperty float z\nproperty float saliency\n"
+              f"element face {len(f)}\nproperty list uchar int vertex_indices\nend_header\n")
+    with open(path, "wb") as out:
+        out.write(header.encode("ascii"))
+        out.write(v.tobytes())
+        out.write(t.tobytes())
+
+
 def gaze_of(path):
     v, f = read_ply(path)
     if "fixation" not in v or "top5" not in v:
@@ -226,6 +269,9 @@ def main(argv):
         d = surface_distance(q, positions(rv), rf) / diag
         w = g["fixation"]
         print(f"weighted {np.sum(w * d) / np.sum(w):.6g} plain {np.mean(d):.6g} vertices {len(rv['x'])}")
+    elif cmd == "fixation-field" and len(args) == 2:
+        g, f = gaze_of(args[0])
+        write_field_ply(args[1], positions(g), f, fixation_field(g["fixation"]))
     else:
         sys.exit(__doc__)
 

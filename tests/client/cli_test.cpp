@@ -175,5 +175,30 @@ TEST_F(CliTest, EvalOfAMeshAgainstItselfIsZero) {
   EXPECT_EQ(j["candidate"]["non_manifold_edges"], 0);
 }
 
+// field-sheet: rows are views, columns fields, tiles with a 2-pixel gutter
+// around and between them; a field of another mesh is refused.
+TEST_F(CliTest, FieldSheetDrawsOneTilePerViewAndFieldAndRefusesAFieldOfAnotherMesh) {
+  const std::string field = path("field.ply");
+  CliRun r = run_cli("local ../shared/models/spot.obj -o " + path("spot.ply") + " -n 500 --field-out " + field);
+  ASSERT_EQ(r.code, 0) << r.all();
+  const std::string png = path("sheet.png");
+  r = run_cli("field-sheet ../shared/models/spot.obj -f " + field + " -f " + field + " -f " + field + " -o " + png +
+              " --tile 64");
+  ASSERT_EQ(r.code, 0) << r.all();
+  std::ifstream in(png, std::ios::binary);
+  unsigned char head[24] = {};
+  in.read(reinterpret_cast<char*>(head), sizeof head);
+  ASSERT_TRUE(in) << png;
+  EXPECT_EQ(std::string(reinterpret_cast<char*>(head + 12), 4), "IHDR");
+  auto be32 = [&](int at) { return (head[at] << 24) | (head[at + 1] << 16) | (head[at + 2] << 8) | head[at + 3]; };
+  EXPECT_EQ(be32(16), 3 * 64 + 4 * 2);  // three fields across
+  EXPECT_EQ(be32(20), 2 * 64 + 3 * 2);  // two views down
+
+  r = run_cli("field-sheet ../shared/models/suzanne.obj -f " + field + " -o " + path("bad.png"));
+  EXPECT_EQ(r.code, 3) << r.all();
+  EXPECT_NE(r.err.find("2930 field values"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("bad.png")));
+}
+
 }  // namespace
 }  // namespace vpr

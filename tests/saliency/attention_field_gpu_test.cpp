@@ -1,6 +1,6 @@
 // The attention field's GPU twins against their CPU twins (attention_field.h,
 // visibility.h): the visibility runs the same double arithmetic on both, so
-// the shares must be identical.
+// the shares must be identical; with and without the image cue,
 // the weighted means run the same float products in the same order on both
 // (no FMA contraction, no transcendental), so the fields must be identical.
 // Skipped where no CUDA device can be used.
@@ -15,6 +15,8 @@
 #include "gpu/cuda_device.h"
 #include "io/mesh_io.h"
 #include "saliency/attention_field.h"
+#include "saliency/image_saliency.h"
+#include "saliency/unproject.h"
 #include "saliency/visibility.h"
 #include "surface/surface_density.h"
 
@@ -39,12 +41,14 @@ class AttentionFieldGpu : public ::testing::Test {
 };
 
 void expect_twins_agree(const Mesh& m, const AttentionFieldOptions& o, const ExecContext& gpu,
-                        const std::string& what) {
+                        const std::string& what, FeaturePoints features = {}) {
   const std::vector<double> hd = mean_curvature(m);
   const std::vector<float> h(hd.begin(), hd.end());
   std::vector<float> cpu_field, gpu_field;
-  ASSERT_TRUE(cpu::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), o, &cpu_field, kCpu).ok());
-  const Status s = cuda::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), o, &gpu_field, gpu);
+  ASSERT_TRUE(
+      cpu::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o, &cpu_field, kCpu).ok());
+  const Status s =
+      cuda::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o, &gpu_field, gpu);
   ASSERT_TRUE(s.ok()) << s.to_string();
   ASSERT_EQ(gpu_field.size(), cpu_field.size());
   size_t differ = 0;
@@ -67,6 +71,34 @@ TEST_F(AttentionFieldGpu, EqualsCpuOnSpheresAndBunny) {
   expect_twins_agree(*bunny, {}, gpu_, "bunny");
 }
 
+// With the image cue: the weighted counts of feature points (feature_point_density)
+// run the same float products on both twins, so the fields must be identical.
+// The points: every view's unprojected feature pixels, as the pipeline makes them.
+TEST_F(AttentionFieldGpu, ImageCueEqualsCpuOnRenderedFeatures) {
+  auto renderer = create_renderer(RendererKind::kAuto);
+  ASSERT_TRUE(renderer.ok()) << renderer.status().to_string();
+  auto bunny = read_mesh("../shared/models/bunny.obj");
+  const Mesh mesh = bunny.ok() ? *bunny : testing::icosphere(5);
+  auto views = make_views(mesh, {});
+  ASSERT_TRUE(views.ok());
+  std::vector<Snapshot> shots;
+  ASSERT_TRUE((*renderer)->render(mesh, *views, &shots).ok());
+  std::vector<float> points;
+  for (size_t v = 0; v < views->size(); ++v) {
+    FeatureImages f;
+    ASSERT_TRUE(cpu::detect_features(shots[v], {}, &f, kCpu).ok());
+    ASSERT_TRUE(cpu::unproject_features(f.features, shots[v].depth, (*views)[v], &points, kCpu).ok());
+  }
+  ASSERT_GT(points.size(), 300u);
+  const FeaturePoints features{points.data(), points.size() / 3};
+  AttentionFieldOptions cue;
+  cue.image_cue = true;
+  expect_twins_agree(mesh, cue, gpu_, "bunny with its feature points", features);
+  AttentionFieldOptions wide = cue;
+  wide.coarse_sigma = 0.05f;
+  expect_twins_agree(mesh, wide, gpu_, "bunny with its feature points, wide sigma", features);
+}
+
 TEST_F(AttentionFieldGpu, VisibilityEqualsCpuOnRenderedViews) {
   auto renderer = create_renderer(RendererKind::kAuto);
   ASSERT_TRUE(renderer.ok()) << renderer.status().to_string();
@@ -86,6 +118,16 @@ TEST_F(AttentionFieldGpu, VisibilityEqualsCpuOnRenderedViews) {
         cuda::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, {}, &gpu_vis, gpu_);
     ASSERT_TRUE(s.ok()) << s.to_string();
     EXPECT_EQ(gpu_vis, cpu_vis) << count << " views";
+    // Views weighted towards the front and top: the same weights, summed in the same order.
+    VisibilityOptions weighted;
+    weighted.view_bias = 0.75f;
+    ASSERT_TRUE(cpu::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, weighted, &cpu_vis,
+                                     kCpu)
+                    .ok());
+    ASSERT_TRUE(cuda::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, weighted, &gpu_vis,
+                                      gpu_)
+                    .ok());
+    EXPECT_EQ(gpu_vis, cpu_vis) << count << " views, weighted";
   }
 }
 
@@ -96,12 +138,12 @@ TEST_F(AttentionFieldGpu, RefusesLikeCpuAndRunsOutOfBudgetCleanly) {
   std::vector<float> field;
   AttentionFieldOptions bad;
   bad.curvature_cap = 0.5f;
-  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), bad, &field, gpu_).code(),
+  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), bad, &field, gpu_).code(),
             StatusCode::kInvalidArgument);
   DeviceBudget tiny;
   tiny.limit = 64;
   const ExecContext small{Device::kCuda, gpu_.stream, &tiny};
-  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), {}, &field, small).code(),
+  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), {}, &field, small).code(),
             StatusCode::kResourceExhausted);
   EXPECT_EQ(tiny.used.load(), 0u);
 }

@@ -1,7 +1,8 @@
 // The attention field (attention_field.h) on shapes whose answer we know: a
 // small bump on a sphere stands out, the field spans [min_importance, 1] with
 // few vertices at the top, the weighted means equal brute force, the front-top
-// bias orders an otherwise uniform sphere, and bad options are refused.
+// bias orders an otherwise uniform sphere, feature points near a region raise
+// it (weighted counts equal brute force), and bad options are refused.
 #include "saliency/attention_field.h"
 
 #include <gtest/gtest.h>
@@ -27,7 +28,7 @@ StatusOr<std::vector<float>> field_of(const Mesh& mesh, const AttentionFieldOpti
   const std::vector<float> h = curvature_of(mesh);
   std::vector<float> field;
   VPR_RETURN_IF_ERROR(
-      cpu::attention_field(mesh.positions.data(), h.data(), nullptr, mesh.vertex_count(), options, &field, kCpu));
+      cpu::attention_field(mesh.positions.data(), h.data(), nullptr, {}, mesh.vertex_count(), options, &field, kCpu));
   return field;
 }
 
@@ -153,6 +154,83 @@ TEST(AttentionField, GridMeansEqualBruteForce) {
   EXPECT_GT(checked, 400u);
 }
 
+// The weighted count of feature points near a vertex equals a brute-force sum,
+// on a cloud of points partly outside the vertices' box (binned to its border
+// cells).
+TEST(AttentionField, FeaturePointDensityEqualsBruteForce) {
+  std::vector<float> p, h(2000, 1.0f), q;
+  uint32_t state = 777;
+  auto next = [&]() {
+    state = state * 1664525u + 1013904223u;
+    return float(state >> 8) / float(1u << 24);
+  };
+  for (size_t i = 0; i < h.size(); ++i) p.insert(p.end(), {next(), 0.5f * next(), 0.25f * next()});
+  for (int i = 0; i < 5000; ++i) q.insert(q.end(), {1.1f * next() - 0.05f, 0.6f * next() - 0.05f, 0.25f * next()});
+  AttentionFieldOptions o;
+  o.coarse_sigma = 0.04f;
+  const VertexGrid grid = build_vertex_grid(p.data(), h.data(), h.size(), o);
+  const VertexGrid points = bin_points(grid, q.data(), q.size() / 3);
+  ASSERT_EQ(points.cell_start.back(), q.size() / 3);
+  size_t nonzero = 0;
+  for (size_t v = 0; v < h.size(); v += 5) {
+    double weight = 0;
+    for (size_t u = 0; u < q.size() / 3; ++u) {
+      const float dx = q[3 * u] - p[3 * v], dy = q[3 * u + 1] - p[3 * v + 1], dz = q[3 * u + 2] - p[3 * v + 2];
+      const float d2 = dx * dx + dy * dy + dz * dz;
+      if (d2 > 4 * grid.sigma * grid.sigma) continue;
+      const float t = 1.0f - d2 / (4 * grid.sigma * grid.sigma);
+      weight += double(t) * double(t);
+    }
+    const float got = feature_point_density(points.sorted.data(), points.cell_start.data(), points.lo, points.cell,
+                                            points.dims, p[3 * v], p[3 * v + 1], p[3 * v + 2], points.sigma);
+    EXPECT_NEAR(got, weight, 1e-4 * std::max(1.0, weight)) << "vertex " << v;
+    nonzero += weight > 0;
+  }
+  EXPECT_GT(nonzero, 300u);
+}
+
+// The image cue: on a plain sphere (flat curvature, no bias) feature points
+// scattered over one cap put that cap in the field's top 10%, and the field
+// without the cue (no points, or image_cue off) leaves it near the middle.
+TEST(AttentionField, FeaturePointsNearARegionRaiseIt) {
+  const Mesh m = testing::icosphere(5);
+  const std::vector<float> h = curvature_of(m);
+  const Vec3 axis{-0.6f, 0.0f, 0.8f};
+  const std::vector<size_t> cap = cap_of(m, axis, 0.25f);
+  ASSERT_GE(cap.size(), 50u);
+  // One point near each cap vertex, pushed 0.002 off the surface (unprojected
+  // pixels are not exactly on it), plus a sparse scatter over the whole sphere.
+  std::vector<float> points;
+  for (size_t v : cap)
+    for (int k = 0; k < 3; ++k) points.push_back(1.002f * m.positions[3 * v + k]);
+  for (size_t v = 0; v < m.vertex_count(); v += 37)
+    for (int k = 0; k < 3; ++k) points.push_back(m.positions[3 * v + k]);
+  AttentionFieldOptions o;
+  o.view_bias = 0;
+  o.image_cue = true;
+  const FeaturePoints features{points.data(), points.size() / 3};
+  std::vector<float> with, without, off;
+  ASSERT_TRUE(cpu::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o, &with, kCpu)
+                  .ok());
+  ASSERT_TRUE(cpu::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), o, &without, kCpu).ok());
+  AttentionFieldOptions no_cue = o;
+  no_cue.image_cue = false;
+  ASSERT_TRUE(
+      cpu::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), no_cue, &off, kCpu).ok());
+  EXPECT_EQ(off, without);
+  const std::vector<size_t> centre = cap_of(m, axis, 0.15f);
+  const float top10 = quantile(with, 0.90);
+  for (size_t v : centre) EXPECT_GE(with[v], top10) << "cap vertex " << v;
+  double mean_without = 0;
+  for (size_t v : centre) mean_without += without[v];
+  EXPECT_LT(mean_without / double(centre.size()), 0.85);
+  EXPECT_LE(share_at_max(with), 0.05);
+  // Null points with a count are refused.
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, {nullptr, 3}, m.vertex_count(), o, &with, kCpu)
+                .code(),
+            StatusCode::kInvalidArgument);
+}
+
 // On a sphere the curvature cue is flat, so the bias alone orders it: the
 // front-top cap outranks the back-bottom one, and with the bias off neither does.
 TEST(AttentionField, FrontTopBiasOrdersAUniformSphere) {
@@ -181,20 +259,20 @@ TEST(AttentionField, RefusesBadOptionsAndHandlesNoVertices) {
   std::vector<float> field;
   AttentionFieldOptions bad;
   bad.coarse_sigma = 0;
-  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), bad, &field, kCpu).code(),
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), bad, &field, kCpu).code(),
             StatusCode::kInvalidArgument);
   bad = {};
   bad.view_bias = 1.5f;
-  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), bad, &field, kCpu).code(),
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), bad, &field, kCpu).code(),
             StatusCode::kInvalidArgument);
   bad = {};
   bad.min_importance = 0;
-  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, m.vertex_count(), bad, &field, kCpu).code(),
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), bad, &field, kCpu).code(),
             StatusCode::kInvalidArgument);
-  EXPECT_EQ(cpu::attention_field(m.positions.data(), nullptr, nullptr, m.vertex_count(), {}, &field, kCpu).code(),
+  EXPECT_EQ(cpu::attention_field(m.positions.data(), nullptr, nullptr, {}, m.vertex_count(), {}, &field, kCpu).code(),
             StatusCode::kInvalidArgument);
   field.assign(3, 1.0f);
-  EXPECT_TRUE(cpu::attention_field(nullptr, nullptr, nullptr, 0, {}, &field, kCpu).ok());
+  EXPECT_TRUE(cpu::attention_field(nullptr, nullptr, nullptr, {}, 0, {}, &field, kCpu).ok());
   EXPECT_TRUE(field.empty());
 }
 

@@ -107,6 +107,23 @@ class GazeScore(unittest.TestCase):
             self.assertAlmostEqual(float(row[3]), 1.0)  # the one top5 vertex has the highest value
             self.assertEqual(row[5].strip(), "25.0%")
 
+    def test_fixation_field_ranks_the_looked_at_vertices(self):
+        # Not looked at: 0; looked at: 0.2 + 0.8 x rank among them, ties sharing the mean rank.
+        field = gs.fixation_field([0, 5, 1, 0, 9, 5])
+        np.testing.assert_allclose(field, [0, 0.2 + 0.8 * 1.5 / 3, 0.2, 0, 1.0, 0.2 + 0.8 * 1.5 / 3])
+        np.testing.assert_allclose(gs.fixation_field([0, 0, 3]), [0, 0, 1])
+        with tempfile.TemporaryDirectory() as tmp:
+            q = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], float)
+            faces = np.array([[0, 1, 2], [1, 3, 2]])
+            write_ply(os.path.join(tmp, "gaze.ply"), q, faces,
+                      [("fixation", "float", "<f4", [0, 2, 1, 0]), ("top5", "uchar", "u1", [0, 1, 0, 0])])
+            subprocess.run([sys.executable, SCRIPT, "fixation-field", os.path.join(tmp, "gaze.ply"),
+                            os.path.join(tmp, "fix.ply")], check=True)
+            v, f = gs.read_ply(os.path.join(tmp, "fix.ply"))
+            np.testing.assert_allclose(gs.positions(v), q)
+            np.testing.assert_array_equal(f, faces)
+            np.testing.assert_allclose(v["saliency"], [0, 1, 0.2, 0], atol=1e-6)
+
     def test_point_triangle_distance_against_sampling(self):
         rng = np.random.default_rng(7)
         a, b, c = rng.normal(size=(3, 200, 3))

@@ -100,8 +100,30 @@ TEST_F(Visibility, RefusesMismatchedViewsAndNoViewsMeansSeen) {
   bad.depth_tolerance = -1;
   EXPECT_EQ(cpu::view_visibility(m.positions.data(), m.vertex_count(), *views, shots, bad, &vis, kCpu).code(),
             StatusCode::kInvalidArgument);
+  bad = {};
+  bad.view_bias = 1.5f;
+  EXPECT_EQ(cpu::view_visibility(m.positions.data(), m.vertex_count(), *views, shots, bad, &vis, kCpu).code(),
+            StatusCode::kInvalidArgument);
   ASSERT_TRUE(cpu::view_visibility(m.positions.data(), m.vertex_count(), {}, {}, {}, &vis, kCpu).ok());
   EXPECT_EQ(vis, std::vector<float>(m.vertex_count(), 1.0f));
+}
+
+// Views weighted towards the front and top: with b = 1 a view 45 degrees from
+// the front-top direction weighs (1 + cos 45)/2, one facing away from it
+// (1 - cos 45)/2, a side view 1/2; with b = 0 all weigh 1.
+TEST_F(Visibility, WeightsViewsTowardsTheFrontAndTop) {
+  std::vector<View> views(6);
+  const Vec3 dirs[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (int i = 0; i < 6; ++i) views[i].toward_camera = dirs[i];
+  VisibilityOptions o;
+  EXPECT_EQ(view_weights(views, o), std::vector<double>(6, 1.0));
+  o.view_bias = 1.0f;
+  const std::vector<double> w = view_weights(views, o);
+  const double c = std::sqrt(0.5);
+  const double expected[6] = {0.5, 0.5, 0.5 * (1 + c), 0.5 * (1 - c), 0.5 * (1 + c), 0.5 * (1 - c)};
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(w[i], expected[i], 1e-6) << "view " << i;
+  o.view_bias = 0.5f;
+  EXPECT_NEAR(view_weights(views, o)[3], 0.5 + 0.5 * 0.5 * (1 - c), 1e-6);
 }
 
 }  // namespace

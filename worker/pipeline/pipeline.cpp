@@ -225,6 +225,7 @@ Status validate_options(const PipelineOptions& o) {
   if (!(o.field.min_importance > 0 && o.field.min_importance <= 1))
     return invalid_argument("min importance must be in (0, 1]");
   VPR_RETURN_IF_ERROR(check_attention_field_args(o.attention, 0, nullptr));
+  VPR_RETURN_IF_ERROR(check_visibility_args({}, {}, o.visibility));  // its options only, before any work
   if (!(o.drop_parts_smaller_than >= 0 && o.drop_parts_smaller_than <= 1))
     return invalid_argument("drop-parts-smaller-than must be a share of the model's diagonal in [0, 1]");
   if (!(o.awlop.mu >= 0 && o.awlop.mu <= 0.5)) return invalid_argument("mu must be in [0, 0.5]");
@@ -402,9 +403,12 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
     VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {
       if (curvature.empty()) curvature = mean_curvature(input);  // a CPU rerun after a GPU failure keeps it
       const std::vector<float> h(curvature.begin(), curvature.end());
+      // The image cue: the front half's saliency points (stage 3), in the
+      // same normalized space as the input's vertices.
+      const FeaturePoints features{saliency_points.data(), saliency_points.size() / 3};
       return VPR_TWIN(c, attention_field)(input.positions.data(), h.data(),
-                                          visibility.empty() ? nullptr : visibility.data(), input.vertex_count(),
-                                          options.attention, &result.input_importance, c);
+                                          visibility.empty() ? nullptr : visibility.data(), features,
+                                          input.vertex_count(), options.attention, &result.input_importance, c);
     }));
   }
 

@@ -33,7 +33,8 @@ std::vector<double> over_median(const float* x, size_t n, double cap) {
 
 }  // namespace
 
-Status check_attention_field_args(const AttentionFieldOptions& o, size_t vertex_count, const float* curvature) {
+Status check_attention_field_args(const AttentionFieldOptions& o, size_t vertex_count, const float* curvature,
+                                  FeaturePoints features) {
   if (!(o.coarse_sigma > 0.0f && o.coarse_sigma <= 0.5f))
     return invalid_argument("attention field: coarse_sigma = " + std::to_string(o.coarse_sigma) +
                             " of the diagonal, it must lie in (0, 0.5]");
@@ -48,6 +49,9 @@ Status check_attention_field_args(const AttentionFieldOptions& o, size_t vertex_
     return invalid_argument("attention field: min_importance = " + std::to_string(o.min_importance) +
                             ", it must lie in (0, 1]");
   if (vertex_count > 0 && curvature == nullptr) return invalid_argument("attention field: no curvature given");
+  if (features.count > 0 && features.xyz == nullptr) return invalid_argument("attention field: feature points are null");
+  if (features.count >= (size_t(1) << 31))
+    return resource_exhausted("attention field: " + std::to_string(features.count) + " feature points, the limit is 2^31");
   if (vertex_count >= (size_t(1) << 31))
     return resource_exhausted("attention field: " + std::to_string(vertex_count) + " vertices, the limit is 2^31");
   return Status::Ok();
@@ -95,10 +99,47 @@ VertexGrid build_vertex_grid(const float* vertices, const float* curvature, size
   return g;
 }
 
-void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, const float* visibility,
-                            size_t n, const AttentionFieldOptions& o, std::vector<float>* importance) {
+VertexGrid bin_points(const VertexGrid& shape, const float* points, size_t count) {
+  VertexGrid g;
+  g.sigma = shape.sigma;
+  g.cell = shape.cell;
+  for (int a = 0; a < 3; ++a) {
+    g.lo[a] = shape.lo[a];
+    g.dims[a] = shape.dims[a];
+  }
+  const size_t cells = size_t(g.dims[0]) * g.dims[1] * g.dims[2];
+  std::vector<uint32_t> cell_of(count);
+  g.cell_start.assign(cells + 1, 0);
+  for (size_t i = 0; i < count; ++i) {
+    int c[3];
+    for (int a = 0; a < 3; ++a) {
+      const float t = (points[3 * i + a] - g.lo[a]) / g.cell;  // a float compare: no int overflow far outside
+      c[a] = t < 0.0f ? 0 : (t >= float(g.dims[a]) ? g.dims[a] - 1 : std::min(int(t), g.dims[a] - 1));
+    }
+    cell_of[i] = uint32_t((size_t(c[2]) * g.dims[1] + c[1]) * g.dims[0] + c[0]);
+    ++g.cell_start[cell_of[i] + 1];
+  }
+  std::partial_sum(g.cell_start.begin(), g.cell_start.end(), g.cell_start.begin());
+  std::vector<uint32_t> next(g.cell_start.begin(), g.cell_start.end() - 1);
+  g.order.resize(count);
+  g.sorted.resize(4 * count);
+  for (size_t i = 0; i < count; ++i) {
+    const uint32_t t = next[cell_of[i]]++;
+    g.order[t] = uint32_t(i);
+    for (int a = 0; a < 3; ++a) g.sorted[4 * t + a] = points[3 * i + a];
+    g.sorted[4 * t + 3] = 1.0f;
+  }
+  return g;
+}
+
+void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, const float* density,
+                            const float* visibility, size_t n, const AttentionFieldOptions& o,
+                            std::vector<float>* importance) {
   const std::vector<double> fine = over_median(curvature, n, o.curvature_cap);
   const std::vector<double> wide = over_median(coarse, n, o.curvature_cap);
+  // The image cue over its median (of the vertices near any feature when most
+  // are near none), capped like the curvature maps; all three averaged.
+  const std::vector<double> image = density ? over_median(density, n, o.curvature_cap) : std::vector<double>();
   // Nearness along the view direction, 0 at the far end of the model, 1 at the near one.
   const Vec3d d{o.view_direction.x, o.view_direction.y, o.view_direction.z};
   std::vector<double> along(n);
@@ -111,7 +152,8 @@ void finish_attention_field(const float* vertices, const float* curvature, const
   std::vector<double> raw(n);
   for (size_t v = 0; v < n; ++v) {
     const double nearness = hi > lo ? (along[v] - lo) / (hi - lo) : 1.0;
-    raw[v] = std::sqrt(0.5 * (fine[v] + wide[v])) * (1.0 - o.view_bias + o.view_bias * nearness);
+    const double cues = density ? (fine[v] + wide[v] + image[v]) / 3.0 : 0.5 * (fine[v] + wide[v]);
+    raw[v] = std::sqrt(cues) * (1.0 - o.view_bias + o.view_bias * nearness);
     if (visibility) raw[v] *= std::clamp(double(visibility[v]), 0.0, 1.0);
     // A cue that is not a number (the curvature of a face with a zero-length
     // edge) counts as no cue: NaN would break the sort's ordering below.
@@ -134,10 +176,11 @@ void finish_attention_field(const float* vertices, const float* curvature, const
 
 namespace cpu {
 
-Status attention_field(const float* vertices, const float* curvature, const float* visibility, size_t n,
-                       const AttentionFieldOptions& options, std::vector<float>* importance, const ExecContext&) {
+Status attention_field(const float* vertices, const float* curvature, const float* visibility, FeaturePoints features,
+                       size_t n, const AttentionFieldOptions& options, std::vector<float>* importance,
+                       const ExecContext&) {
   assert(importance != nullptr);
-  VPR_RETURN_IF_ERROR(check_attention_field_args(options, n, curvature));
+  VPR_RETURN_IF_ERROR(check_attention_field_args(options, n, curvature, features));
   importance->clear();
   if (n == 0) return Status::Ok();
   const VertexGrid grid = build_vertex_grid(vertices, curvature, n, options);
@@ -147,7 +190,19 @@ Status attention_field(const float* vertices, const float* curvature, const floa
       coarse[v] = coarse_curvature_mean(grid.sorted.data(), grid.cell_start.data(), grid.lo, grid.cell, grid.dims,
                                         vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2], grid.sigma);
   });
-  finish_attention_field(vertices, curvature, coarse.data(), visibility, n, options, importance);
+  std::vector<float> density;
+  if (use_image_cue(options, features)) {
+    const VertexGrid points = bin_points(grid, features.xyz, features.count);
+    density.resize(n);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v)
+        density[v] = feature_point_density(points.sorted.data(), points.cell_start.data(), points.lo, points.cell,
+                                           points.dims, vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2],
+                                           points.sigma);
+    });
+  }
+  finish_attention_field(vertices, curvature, coarse.data(), density.empty() ? nullptr : density.data(), visibility,
+                         n, options, importance);
   return Status::Ok();
 }
 

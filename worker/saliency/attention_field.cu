@@ -1,6 +1,7 @@
 // GPU twin of the attention field (attention_field.h): the per-vertex weighted
-// means of |H| over the host-built grid, one thread a vertex, with the same
-// arithmetic as the CPU twin (coarse_curvature_mean, compiled without FMA
+// means of |H| and weighted counts of feature points over the host-built
+// grids, one thread a vertex, with the same arithmetic as the CPU twin
+// (coarse_curvature_mean, feature_point_density, compiled without FMA
 // contraction); the rank normalization stays on the host.
 #include <cassert>
 
@@ -26,12 +27,22 @@ __global__ void coarse_curvature_kernel(const float* vertices, uint32_t n, const
                                     vertices[3 * v + 1], vertices[3 * v + 2], sigma);
 }
 
+// The image cue: weighted count of feature points near each vertex.
+__global__ void feature_density_kernel(const float* vertices, uint32_t n, const float* sorted,
+                                       const uint32_t* cell_start, GridShape shape, float sigma, float* density) {
+  const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= n) return;
+  density[v] = feature_point_density(sorted, cell_start, shape.lo, shape.cell, shape.dims, vertices[3 * v],
+                                     vertices[3 * v + 1], vertices[3 * v + 2], sigma);
+}
+
 }  // namespace
 
-Status attention_field(const float* vertices, const float* curvature, const float* visibility, size_t n,
-                       const AttentionFieldOptions& options, std::vector<float>* importance, const ExecContext& ctx) {
+Status attention_field(const float* vertices, const float* curvature, const float* visibility, FeaturePoints features,
+                       size_t n, const AttentionFieldOptions& options, std::vector<float>* importance,
+                       const ExecContext& ctx) {
   assert(importance != nullptr);
-  VPR_RETURN_IF_ERROR(check_attention_field_args(options, n, curvature));
+  VPR_RETURN_IF_ERROR(check_attention_field_args(options, n, curvature, features));
   importance->clear();
   if (n == 0) return Status::Ok();
   const VertexGrid grid = build_vertex_grid(vertices, curvature, n, options);
@@ -54,8 +65,25 @@ Status attention_field(const float* vertices, const float* curvature, const floa
   VPR_CUDA_LAUNCHED("coarse_curvature_kernel");
   std::vector<float> coarse(n);
   VPR_RETURN_IF_ERROR(d_coarse.download(coarse.data(), n));
+  std::vector<float> density;
+  VertexGrid points;  // host copies live until the stream is synchronized
+  DeviceBuffer<float> d_points, d_density;
+  DeviceBuffer<uint32_t> d_point_start;
+  if (use_image_cue(options, features)) {
+    points = bin_points(grid, features.xyz, features.count);
+    VPR_RETURN_IF_ERROR(d_points.upload(points.sorted.data(), points.sorted.size(), ctx));
+    VPR_RETURN_IF_ERROR(d_point_start.upload(points.cell_start.data(), points.cell_start.size(), ctx));
+    VPR_RETURN_IF_ERROR(d_density.allocate(n, ctx));
+    feature_density_kernel<<<blocks_for(n), kBlock, 0, stream>>>(d_vertices.get(), uint32_t(n), d_points.get(),
+                                                                 d_point_start.get(), shape, points.sigma,
+                                                                 d_density.get());
+    VPR_CUDA_LAUNCHED("feature_density_kernel");
+    density.resize(n);
+    VPR_RETURN_IF_ERROR(d_density.download(density.data(), n));
+  }
   VPR_CUDA_TRY(cudaStreamSynchronize(stream));
-  finish_attention_field(vertices, curvature, coarse.data(), visibility, n, options, importance);
+  finish_attention_field(vertices, curvature, coarse.data(), density.empty() ? nullptr : density.data(), visibility,
+                         n, options, importance);
   return Status::Ok();
 }
 

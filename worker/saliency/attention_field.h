@@ -17,6 +17,14 @@
 //    a bias, not a gate (the far side keeps 1 - view_bias of its weight).
 //  - Visibility over the rendered views (visibility.h), when the caller has
 //    it: the raw value is multiplied by the share of views that see the vertex.
+//  - Image-space features, when the caller has them: the saliency points of
+//    the paper's front half (inner-feature and thin-silhouette pixels of every
+//    view, unprojected, unproject.h). Their weighted count within 2 sigma of a
+//    vertex keeps the cue's strength instead of a yes/no flag: a vertex near
+//    many feature pixels, in many views, scores higher. It enters as a third
+//    map beside the two curvature scales, over its median and capped like
+//    them, and the three are averaged (Itti, Koch and Niebur 1998 sum their
+//    normalized conspicuity maps the same way).
 // The raw value is then normalized by rank to [min_importance, 1], so that the
 // field spans its whole range whatever the input (equal raw values share their
 // mean rank; one vertex, or one set of equal ones, is at the maximum).
@@ -55,11 +63,28 @@ struct AttentionFieldOptions {
   // Floor of the field, so that no region is starved: values lie in
   // [min_importance, 1]. In (0, 1].
   float min_importance = 0.2f;
+  // The image cue (feature points near a vertex, see above), when the caller
+  // has the points (--image-cue). Off by default: on ../shared/gaze/ it did
+  // not raise the mean AUC (docs/perception.md, "What each cue contributes").
+  bool image_cue = false;
+};
+
+// Image-space feature points for the field: #points x 3 floats in the
+// vertices' space (null and 0 when the caller has none).
+struct FeaturePoints {
+  const float* xyz = nullptr;
+  size_t count = 0;
 };
 
 // Argument check shared by both twins: options in range, curvature non-null
-// when vertices are given.
-Status check_attention_field_args(const AttentionFieldOptions& options, size_t vertex_count, const float* curvature);
+// when vertices are given, feature points non-null when counted.
+Status check_attention_field_args(const AttentionFieldOptions& options, size_t vertex_count, const float* curvature,
+                                  FeaturePoints features = {});
+
+// Whether the field takes the image cue: asked for, and there are points.
+inline bool use_image_cue(const AttentionFieldOptions& options, FeaturePoints features) {
+  return options.image_cue && features.count > 0;
+}
 
 // A uniform grid over the vertices with cells at least 2 sigma wide (model
 // units): vertices sorted by cell (x fastest), cell_start[c]..cell_start[c + 1]
@@ -76,13 +101,20 @@ struct VertexGrid {
 VertexGrid build_vertex_grid(const float* vertices, const float* curvature, size_t vertex_count,
                              const AttentionFieldOptions& options);
 
-// Weighted mean of |H| within 2 sigma of vertex p (itself included), over the
-// 27 cells around p's cell. The weight (1 - d^2 / (2 sigma)^2)^2 stands in for
-// Lee et al.'s Gaussian truncated at 2 sigma (equal at 0, within 0.05 up to
-// 1 sigma, at most 0.16 lower in its tail): plain float products, so both
-// twins (compiled without FMA contraction) get the same bits.
-VPR_HD inline float coarse_curvature_mean(const float* sorted, const uint32_t* cell_start, const float lo[3],
-                                          float cell, const int dims[3], float px, float py, float pz, float sigma) {
+// The image-space feature points binned on the vertex grid's cells (same lo,
+// cell and dims): sorted holds x, y, z, 1 per point, order their input index.
+// Points outside the grid go to its border cells (the scan clamps alike).
+VertexGrid bin_points(const VertexGrid& shape, const float* points, size_t point_count);
+
+// Sums over the entries of a grid within 2 sigma of p, over the 27 cells
+// around p's cell: *weight = sum of w, *sum = sum of w x value (the 4th float
+// of an entry). The weight (1 - d^2 / (2 sigma)^2)^2 stands in for Lee et
+// al.'s Gaussian truncated at 2 sigma (equal at 0, within 0.05 up to 1 sigma,
+// at most 0.16 lower in its tail): plain float products, so both twins
+// (compiled without FMA contraction) get the same bits.
+VPR_HD inline void weighted_sums_near(const float* sorted, const uint32_t* cell_start, const float lo[3], float cell,
+                                      const int dims[3], float px, float py, float pz, float sigma, double* sum_out,
+                                      double* weight_out) {
   int c[3];
   const float q[3] = {px, py, pz};
   for (int a = 0; a < 3; ++a) {
@@ -109,13 +141,33 @@ VPR_HD inline float coarse_curvature_mean(const float* sorted, const uint32_t* c
       }
     }
   }
+  *sum_out = sum;
+  *weight_out = weight;
+}
+
+// Weighted mean of |H| within 2 sigma of vertex p (itself included).
+VPR_HD inline float coarse_curvature_mean(const float* sorted, const uint32_t* cell_start, const float lo[3],
+                                          float cell, const int dims[3], float px, float py, float pz, float sigma) {
+  double sum, weight;
+  weighted_sums_near(sorted, cell_start, lo, cell, dims, px, py, pz, sigma, &sum, &weight);
   return weight > 0 ? float(sum / weight) : 0.0f;
 }
 
+// Weighted count of feature points within 2 sigma of vertex p (a grid from
+// bin_points): the image cue's strength at p.
+VPR_HD inline float feature_point_density(const float* sorted, const uint32_t* cell_start, const float lo[3],
+                                          float cell, const int dims[3], float px, float py, float pz, float sigma) {
+  double sum, weight;
+  weighted_sums_near(sorted, cell_start, lo, cell, dims, px, py, pz, sigma, &sum, &weight);
+  return float(weight);
+}
+
 // The raw cue of every vertex and its rank normalization (the host part of
-// both twins): coarse = coarse_curvature_mean per vertex (original order).
-void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, const float* visibility,
-                            size_t vertex_count, const AttentionFieldOptions& options, std::vector<float>* importance);
+// both twins): coarse = coarse_curvature_mean per vertex (original order);
+// density = feature_point_density per vertex, or null without feature points.
+void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, const float* density,
+                            const float* visibility, size_t vertex_count, const AttentionFieldOptions& options,
+                            std::vector<float>* importance);
 
 namespace cpu {
 
@@ -123,10 +175,12 @@ namespace cpu {
 // bounding-box diagonal, but any units work). curvature: #V values of |mean
 // curvature| (surface_density.h's mean_curvature), per model unit.
 // visibility: null, or #V values in [0, 1] that scale the raw cue (the share
-// of views that see the vertex, visibility.h).
+// of views that see the vertex, visibility.h). features: the image cue's
+// points, or none (the field is then curvature, bias and visibility only).
 // importance: #V values in [min_importance, 1]. No vertices: an empty field.
-Status attention_field(const float* vertices, const float* curvature, const float* visibility, size_t vertex_count,
-                       const AttentionFieldOptions& options, std::vector<float>* importance, const ExecContext& ctx);
+Status attention_field(const float* vertices, const float* curvature, const float* visibility, FeaturePoints features,
+                       size_t vertex_count, const AttentionFieldOptions& options, std::vector<float>* importance,
+                       const ExecContext& ctx);
 
 }  // namespace cpu
 
@@ -135,8 +189,9 @@ Status attention_field(const float* vertices, const float* curvature, const floa
 // arithmetic as on the CPU, so the field is identical.
 namespace cuda {
 
-Status attention_field(const float* vertices, const float* curvature, const float* visibility, size_t vertex_count,
-                       const AttentionFieldOptions& options, std::vector<float>* importance, const ExecContext& ctx);
+Status attention_field(const float* vertices, const float* curvature, const float* visibility, FeaturePoints features,
+                       size_t vertex_count, const AttentionFieldOptions& options, std::vector<float>* importance,
+                       const ExecContext& ctx);
 
 }  // namespace cuda
 }  // namespace vpr

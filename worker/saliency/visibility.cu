@@ -1,6 +1,7 @@
 // GPU twin of the visibility cue (visibility.h): one thread a vertex, every
 // view's depth image on the device; the same double arithmetic as the CPU twin
-// (seen_by_view, compiled without FMA contraction).
+// (seen_by_view, compiled without FMA contraction; the views' weights summed
+// in the same order).
 #include <cassert>
 
 #include "gpu/cuda_check.h"
@@ -12,15 +13,18 @@ namespace {
 
 // view_proj: views x 16 doubles; depth: the views' images back to back, each
 // width x height (all views share one size, as make_views makes them).
-__global__ void visibility_kernel(const float* vertices, uint32_t n, const double* view_proj, const float* depth,
-                                  int views, int width, int height, float tolerance, float* out) {
+// weight: views doubles (view_weights), total their sum, as on the CPU.
+__global__ void visibility_kernel(const float* vertices, uint32_t n, const double* view_proj, const double* weight,
+                                  double total, const float* depth, int views, int width, int height, float tolerance,
+                                  float* out) {
   const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= n) return;
-  int seen = 0;
+  double seen = 0;
   for (int i = 0; i < views; ++i)
-    seen += seen_by_view(view_proj + 16 * i, depth + size_t(i) * size_t(width) * size_t(height), width, height,
-                         tolerance, vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2]);
-  out[v] = float(seen) / float(views);
+    if (seen_by_view(view_proj + 16 * i, depth + size_t(i) * size_t(width) * size_t(height), width, height, tolerance,
+                     vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2]))
+      seen += weight[i];
+  out[v] = float(seen / total);
 }
 
 }  // namespace
@@ -41,19 +45,24 @@ Status view_visibility(const float* vertices, size_t n, const std::vector<View>&
   for (size_t i = 0; i < views.size(); ++i)
     for (int k = 0; k < 16; ++k) matrices[16 * i + k] = views[i].view_proj[k];
 
+  const std::vector<double> weight = view_weights(views, options);
+  double total = 0;
+  for (double w : weight) total += w;
+
   const cudaStream_t stream = stream_of(ctx);
   DeviceBuffer<float> d_vertices, d_depth, d_out;
-  DeviceBuffer<double> d_matrices;
+  DeviceBuffer<double> d_matrices, d_weight;
   VPR_RETURN_IF_ERROR(d_vertices.upload(vertices, 3 * n, ctx));
   VPR_RETURN_IF_ERROR(d_matrices.upload(matrices.data(), matrices.size(), ctx));
+  VPR_RETURN_IF_ERROR(d_weight.upload(weight.data(), weight.size(), ctx));
   VPR_RETURN_IF_ERROR(d_depth.allocate(pixels * views.size(), ctx));
   for (size_t i = 0; i < views.size(); ++i)
     VPR_CUDA_TRY(cudaMemcpyAsync(d_depth.get() + i * pixels, snapshots[i].depth.pixels.data(), pixels * sizeof(float),
                                  cudaMemcpyHostToDevice, stream));
   VPR_RETURN_IF_ERROR(d_out.allocate(n, ctx));
   visibility_kernel<<<blocks_for(n), kBlock, 0, stream>>>(d_vertices.get(), uint32_t(n), d_matrices.get(),
-                                                          d_depth.get(), int(views.size()), width, height,
-                                                          options.depth_tolerance, d_out.get());
+                                                          d_weight.get(), total, d_depth.get(), int(views.size()),
+                                                          width, height, options.depth_tolerance, d_out.get());
   VPR_CUDA_LAUNCHED("visibility_kernel");
   VPR_RETURN_IF_ERROR(d_out.download(visibility->data(), n));
   VPR_CUDA_TRY(cudaStreamSynchronize(stream));

@@ -1,5 +1,6 @@
 // Stage 4's visibility cue (our addition, for the attention field): the share
-// of the rendered views that see each vertex. A person looks at what faces
+// of the rendered views that see each vertex, the views optionally weighted
+// towards the front and top. A person looks at what faces
 // them from many sides; recesses, and the far side of thin parts, are seen
 // from few. Measured on ../shared/gaze/ (docs/perception.md), the attention
 // field gains most from this cue, and more with 14 views than with 6.
@@ -25,7 +26,17 @@ struct VisibilityOptions {
   // Window-depth units (each view's depth range spans the model along the
   // view plus 2% of the diagonal): 0.01 is about 1% of the model's depth.
   float depth_tolerance = 0.01f;
+  // Views weighted by how a person looks at an object (Lavoue et al. 2018:
+  // from the front and above): view i weighs 1 - b + b (1 + cos t_i) / 2, t_i
+  // the angle between its direction towards the camera and view_direction
+  // (model frame: +y up, +z front), b = view_bias in [0, 1]. 0: every view
+  // counts alike (the plain share of views).
+  float view_bias = 0.0f;
+  Vec3 view_direction = {0.0f, 1.0f, 1.0f};
 };
+
+// The views' weights (VisibilityOptions::view_bias), shared by both twins.
+std::vector<double> view_weights(const std::vector<View>& views, const VisibilityOptions& options);
 
 // views and snapshots: one snapshot per view, each snapshot's depth the view's
 // size. INVALID_ARGUMENT otherwise, or for a tolerance outside [0, 1].
@@ -59,8 +70,8 @@ VPR_HD inline bool seen_by_view(const double* view_proj, const float* depth, int
 namespace cpu {
 
 // vertices: #V x 3 floats, model space (the space the views were made in).
-// visibility: #V values in [0, 1], the share of views that see each vertex;
-// no views: all 1.
+// visibility: #V values in [0, 1], the (weighted) share of views that see
+// each vertex; no views: all 1.
 Status view_visibility(const float* vertices, size_t vertex_count, const std::vector<View>& views,
                        const std::vector<Snapshot>& snapshots, const VisibilityOptions& options,
                        std::vector<float>* visibility, const ExecContext& ctx);
