@@ -286,6 +286,15 @@ TEST(Gltf, HostileAndBrokenFilesNameTheProblem) {
   std::string bad_index = cube_bin();
   bad_index[96] = 9;
   expect_error(parse(glb(base, bad_index)), StatusCode::kInvalidArgument, "index 9 is beyond the primitive's 8 vertices");
+  // A stride beyond glTF's 252 bytes (it would let a count wrap the bounds check).
+  json strided = base;
+  strided["bufferViews"][0]["byteStride"] = int64_t(1) << 62;
+  expect_error(parse(glb(strided, cube_bin())), StatusCode::kInvalidArgument, "byteStride 4611686018427387904 is outside");
+  // Millions of tiny JSON values: refused before the document is built.
+  std::string many = R"({"asset":{"version":"2.0"},"extras":[)";
+  for (int i = 0; i < 4'000'001; ++i) many += "0,";
+  many += "0]}";
+  expect_error(parse(many), StatusCode::kResourceExhausted, "values, the limit is 4000000");
   // A cycle in the node graph.
   json cycle = base;
   cycle["nodes"] = {{{"mesh", 0}, {"children", {1}}}, {{"children", {0}}}};

@@ -46,6 +46,10 @@ constexpr const char* kDracoExtension = kDracoExtensionName;
 // Node nesting the reader follows (the walk is iterative; this only refuses
 // absurd files early).
 constexpr size_t kMaxNodeDepth = 1024;
+// JSON values a document may hold (nodes, accessors, numbers...): real assets
+// have thousands to a few hundred thousand; 4 million keep the parsed
+// document to a few hundred MB whatever the upload.
+constexpr size_t kMaxJsonValues = 4'000'000;
 
 Status bad(const std::string& what) { return invalid_argument("glTF: " + what); }
 
@@ -105,6 +109,17 @@ bool decode_base64(std::string_view text, std::vector<uint8_t>* out) {
   return true;
 }
 
+double component(const uint8_t* p, int64_t type, bool normalized);
+
+// An accessor's elements inside its bufferView, checked to fit.
+struct AccessorView {
+  const uint8_t* data = nullptr;
+  size_t count = 0, components = 0, step = 0, size = 0;
+  int64_t type = 0;
+  bool normalized = false;
+  double at(size_t e, size_t c) const { return component(data + e * step + c * size, type, normalized); }
+};
+
 class GltfReader {
  public:
   GltfReader(const MeshLimits& limits, const std::string* base_dir) : limits_(limits), base_dir_(base_dir) {}
@@ -116,7 +131,7 @@ class GltfReader {
   Status load_container(const uint8_t* data, size_t size);
   Status load_buffers();
   Status view_bytes(int64_t view, Bytes* out, int64_t* stride);
-  Status read_accessor(int64_t index, bool indices, size_t components, std::vector<double>* out);
+  Status locate_accessor(int64_t index, bool indices, size_t components, struct AccessorView* out);
   Status walk_scene(std::vector<std::pair<int64_t, Matrix>>* instances);
   Status count_primitive(const json& primitive, uint64_t* vertices, uint64_t* faces);
   Status add_primitive(const json& primitive, const Matrix& m, std::vector<float>* saliency);
@@ -158,6 +173,25 @@ Status GltfReader::load_container(const uint8_t* data, size_t size) {
     }
     if (json_size == 0) return bad("the GLB file has no JSON chunk first");
   }
+  // A JSON value costs tens of bytes in memory for one or two of input:
+  // count them (an upper bound: separators and openers outside strings)
+  // before building the document.
+  size_t values = 1;
+  bool in_string = false;
+  for (size_t i = 0; i < json_size; ++i) {
+    const uint8_t c = json_data[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == ',' || c == ':' || c == '[' || c == '{') {
+      ++values;
+    }
+  }
+  if (values > kMaxJsonValues)
+    return resource_exhausted("glTF: the JSON holds about " + std::to_string(values) + " values, the limit is " +
+                              std::to_string(kMaxJsonValues));
   root_ = json::parse(json_data, json_data + json_size, nullptr, false);
   if (root_.is_discarded() || !root_.is_object()) return bad("the JSON is malformed");
   auto asset = root_.find("asset");
@@ -280,9 +314,9 @@ size_t type_components(const std::string& type) {
   return 0;
 }
 
-// Reads accessor `index` (components per element as expected) as doubles;
-// counts are checked against the bufferView before anything is sized.
-Status GltfReader::read_accessor(int64_t index, bool indices, size_t components, std::vector<double>* out) {
+// Finds accessor `index` (components per element as expected); counts are
+// checked against the limits and the bufferView before anything is sized.
+Status GltfReader::locate_accessor(int64_t index, bool indices, size_t components, AccessorView* out) {
   const std::string name = "accessor " + std::to_string(index);
   const json* a = element(root_, "accessors", index);
   if (!a) return bad(name + " does not exist");
@@ -305,17 +339,23 @@ Status GltfReader::read_accessor(int64_t index, bool indices, size_t components,
   int64_t stride = 0;
   VPR_RETURN_IF_ERROR(view_bytes(view, &bytes, &stride));
   const size_t element_size = size * components;
+  // glTF 2.0, 5.11: byteStride is 4..252 when present.
+  if (stride > 0 && (size_t(stride) < element_size || stride > 252))
+    return bad(name + ": byteStride " + std::to_string(stride) + " is outside [element size " +
+               std::to_string(element_size) + ", 252]");
   const size_t step = stride > 0 ? size_t(stride) : element_size;
-  if (stride > 0 && size_t(stride) < element_size) return bad(name + ": byteStride " + std::to_string(stride) + " is below the element size");
   if (count > 0 && (uint64_t(offset) > bytes.size ||
                     (uint64_t(count) - 1) * step + element_size > bytes.size - uint64_t(offset)))
     return bad(name + " declares " + std::to_string(count) + " elements, more than its bufferView's " +
                std::to_string(bytes.size) + " bytes hold");
-  const bool normalized = a->value("normalized", false) == true;
-  out->resize(size_t(count) * components);
-  for (size_t e = 0; e < size_t(count); ++e)
-    for (size_t c = 0; c < components; ++c)
-      (*out)[e * components + c] = component(bytes.data + size_t(offset) + e * step + c * size, type, normalized);
+  auto normalized = a->find("normalized");
+  out->data = bytes.data + size_t(offset);
+  out->count = size_t(count);
+  out->components = components;
+  out->step = step;
+  out->size = size;
+  out->type = type;
+  out->normalized = normalized != a->end() && normalized->is_boolean() && normalized->get<bool>();
   return Status::Ok();
 }
 
@@ -465,41 +505,53 @@ Status GltfReader::add_primitive(const json& primitive, const Matrix& m, std::ve
     saliency = std::move(draco_saliency);
   } else {
     const json& attributes = primitive["attributes"];
-    VPR_RETURN_IF_ERROR(read_accessor(attributes["POSITION"].get<int64_t>(), false, 3, &local));
-    const size_t nv = local.size() / 3;
+    AccessorView position;
+    VPR_RETURN_IF_ERROR(locate_accessor(attributes["POSITION"].get<int64_t>(), false, 3, &position));
+    const size_t nv = position.count;
+    local.resize(3 * nv);
+    for (size_t v = 0; v < nv; ++v)
+      for (size_t a = 0; a < 3; ++a) local[3 * v + a] = position.at(v, a);
     int64_t indices = -1;
     get_index(primitive, "indices", -1, &indices);
-    std::vector<double> raw;
+    std::vector<uint32_t> raw;
     if (indices >= 0) {
-      VPR_RETURN_IF_ERROR(read_accessor(indices, true, 1, &raw));
+      AccessorView view;
+      VPR_RETURN_IF_ERROR(locate_accessor(indices, true, 1, &view));
+      raw.resize(view.count);
+      for (size_t i = 0; i < view.count; ++i) {
+        const double index = view.at(i, 0);  // an unsigned integer of at most 32 bits
+        if (!(index < double(nv)))
+          return bad("index " + std::to_string(uint64_t(index)) + " is beyond the primitive's " + std::to_string(nv) +
+                     " vertices");
+        raw[i] = uint32_t(index);
+      }
     } else {
       raw.resize(nv);
-      for (size_t i = 0; i < nv; ++i) raw[i] = double(i);
+      for (size_t i = 0; i < nv; ++i) raw[i] = uint32_t(i);
     }
-    for (size_t i = 0; i < raw.size(); ++i)
-      if (!(raw[i] < double(nv)))
-        return bad("index " + std::to_string(uint64_t(raw[i])) + " is beyond the primitive's " + std::to_string(nv) + " vertices");
     int64_t mode = 4;
     get_index(primitive, "mode", 4, &mode);
     if (mode == 4) {
-      for (size_t i = 0; i + 2 < raw.size(); i += 3)
-        corners.insert(corners.end(), {uint32_t(raw[i]), uint32_t(raw[i + 1]), uint32_t(raw[i + 2])});
+      raw.resize(raw.size() / 3 * 3);
+      corners = std::move(raw);
     } else {
       for (size_t i = 2; i < raw.size(); ++i) {
-        if (mode == 5)  // strip: every other triangle flips to keep the winding
-          corners.insert(corners.end(), i % 2 ? std::initializer_list<uint32_t>{uint32_t(raw[i - 1]), uint32_t(raw[i - 2]), uint32_t(raw[i])}
-                                              : std::initializer_list<uint32_t>{uint32_t(raw[i - 2]), uint32_t(raw[i - 1]), uint32_t(raw[i])});
+        if (mode == 5 && i % 2)  // strip: every other triangle flips to keep the winding
+          corners.insert(corners.end(), {raw[i - 1], raw[i - 2], raw[i]});
+        else if (mode == 5)
+          corners.insert(corners.end(), {raw[i - 2], raw[i - 1], raw[i]});
         else  // fan
-          corners.insert(corners.end(), {uint32_t(raw[0]), uint32_t(raw[i - 1]), uint32_t(raw[i])});
+          corners.insert(corners.end(), {raw[0], raw[i - 1], raw[i]});
       }
     }
     int64_t sal = -1;
     if (want_saliency && attributes.is_object() && get_index(attributes, kSaliencyAttribute, -1, &sal) && sal >= 0) {
-      std::vector<double> values;
-      VPR_RETURN_IF_ERROR(read_accessor(sal, false, 1, &values));
-      if (values.size() == nv) {
+      AccessorView values;
+      VPR_RETURN_IF_ERROR(locate_accessor(sal, false, 1, &values));
+      if (values.count == nv) {
         has_saliency = true;
-        saliency.assign(values.begin(), values.end());
+        saliency.resize(nv);
+        for (size_t v = 0; v < nv; ++v) saliency[v] = to_float(values.at(v, 0));
       }
     }
   }
@@ -557,7 +609,12 @@ Status GltfReader::parse(const uint8_t* data, size_t size, std::vector<float>* s
 StatusOr<Mesh> parse_gltf(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency,
                           const std::string* base_dir) {
   GltfReader reader(limits, base_dir);
-  VPR_RETURN_IF_ERROR(reader.parse(data, size, saliency));
+  try {
+    VPR_RETURN_IF_ERROR(reader.parse(data, size, saliency));
+  } catch (const json::exception& e) {
+    // Every access is checked first; this is the backstop for one that is not.
+    return invalid_argument(std::string("glTF: unexpected JSON content (") + e.what() + ")");
+  }
   return reader.take_mesh();
 }
 
