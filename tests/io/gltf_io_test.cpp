@@ -295,6 +295,11 @@ TEST(Gltf, HostileAndBrokenFilesNameTheProblem) {
   for (int i = 0; i < 4'000'001; ++i) many += "0,";
   many += "0]}";
   expect_error(parse(many), StatusCode::kResourceExhausted, "values, the limit is 4000000");
+  // More nodes than the walk keeps matrices for.
+  std::string nodes = R"({"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[)";
+  for (int i = 0; i < 1'000'000; ++i) nodes += "{},";
+  nodes += "{}]}";
+  expect_error(parse(nodes), StatusCode::kResourceExhausted, "the file has 1000001 nodes, the limit is 1000000");
   // A cycle in the node graph.
   json cycle = base;
   cycle["nodes"] = {{{"mesh", 0}, {"children", {1}}}, {{"children", {0}}}};

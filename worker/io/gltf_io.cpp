@@ -50,6 +50,8 @@ constexpr size_t kMaxNodeDepth = 1024;
 // have thousands to a few hundred thousand; 4 million keep the parsed
 // document to a few hundred MB whatever the upload.
 constexpr size_t kMaxJsonValues = 4'000'000;
+// Nodes a scene may hold: each costs a 4 x 4 matrix while the scene is walked.
+constexpr size_t kMaxNodes = 1'000'000;
 
 Status bad(const std::string& what) { return invalid_argument("glTF: " + what); }
 
@@ -407,7 +409,17 @@ Status GltfReader::walk_scene(std::vector<std::pair<int64_t, Matrix>>* instances
   if (!scene) return bad("scene " + std::to_string(scene_index) + " does not exist: no triangles to read");
   const json* all_nodes = root_.contains("nodes") ? &root_["nodes"] : nullptr;
   const size_t node_count = all_nodes && all_nodes->is_array() ? all_nodes->size() : 0;
+  if (node_count > kMaxNodes)
+    return resource_exhausted("glTF: the file has " + std::to_string(node_count) + " nodes, the limit is " +
+                              std::to_string(kMaxNodes));
+  // Marked when pushed, so the stack holds each node at most once.
   std::vector<char> seen(node_count, 0);
+  auto reached = [&](int64_t node) -> Status {
+    if (node < 0 || uint64_t(node) >= node_count) return bad("node " + std::to_string(node) + " does not exist");
+    if (seen[size_t(node)]) return bad("node " + std::to_string(node) + " is reached twice (a cycle or two parents)");
+    seen[size_t(node)] = 1;
+    return Status::Ok();
+  };
   struct Item {
     int64_t node;
     Matrix parent;
@@ -421,6 +433,7 @@ Status GltfReader::walk_scene(std::vector<std::pair<int64_t, Matrix>>* instances
     // Reversed onto the stack, so that nodes are read in the file's order.
     for (auto n = roots.rbegin(); n != roots.rend(); ++n) {
       if (!n->is_number_integer() && !n->is_number_unsigned()) return bad("scene.nodes holds a non-index");
+      VPR_RETURN_IF_ERROR(reached(n->get<int64_t>()));
       stack.push_back({n->get<int64_t>(), identity, 0});
     }
   }
@@ -428,9 +441,7 @@ Status GltfReader::walk_scene(std::vector<std::pair<int64_t, Matrix>>* instances
     const Item item = stack.back();
     stack.pop_back();
     const json* node = element(root_, "nodes", item.node);
-    if (!node) return bad("node " + std::to_string(item.node) + " does not exist");
-    if (seen[size_t(item.node)]) return bad("node " + std::to_string(item.node) + " is reached twice (a cycle or two parents)");
-    seen[size_t(item.node)] = 1;
+    if (!node) return bad("node " + std::to_string(item.node) + " is not an object");
     if (item.depth > kMaxNodeDepth) return bad("nodes are nested deeper than " + std::to_string(kMaxNodeDepth) + " levels");
     Matrix local;
     if (!local_matrix(*node, &local)) return bad("node " + std::to_string(item.node) + " has a malformed transform");
@@ -443,6 +454,7 @@ Status GltfReader::walk_scene(std::vector<std::pair<int64_t, Matrix>>* instances
       if (!children.is_array()) return bad("node " + std::to_string(item.node) + ".children is not an array");
       for (auto c = children.rbegin(); c != children.rend(); ++c) {
         if (!c->is_number_integer() && !c->is_number_unsigned()) return bad("node children hold a non-index");
+        VPR_RETURN_IF_ERROR(reached(c->get<int64_t>()));
         stack.push_back({c->get<int64_t>(), world, item.depth + 1});
       }
     }
