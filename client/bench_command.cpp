@@ -405,7 +405,7 @@ Command add_bench_command(CLI::App& app) {
   auto args = std::make_shared<BenchArgs>();
   CLI::App* cmd = app.add_subcommand("bench", "Load and latency of a vpremesh-server (closed or open loop)");
   add_server_flags(cmd, args->server, args->deadline_s);  // --deadline: per request
-  cmd->add_option("-i,--input", args->input, "Mesh uploaded by every request (.drc .obj .ply .off .stl)")->required();
+  cmd->add_option("-i,--input", args->input, "Mesh uploaded by every request (.drc .glb .gltf .obj .ply .off .stl)")->required();
   cmd->add_option("-n,--target-vertices", args->target_vertices, "Output vertex count")->required();
   CLI::Option* concurrency =
       cmd->add_option("-c,--concurrency", args->concurrency, "Closed loop: clients, each with one request in flight")

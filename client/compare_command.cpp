@@ -298,7 +298,7 @@ int run_compare(const CompareArgs& a) {
 Command add_compare_command(CLI::App& app) {
   auto args = std::make_shared<CompareArgs>();
   CLI::App* cmd = app.add_subcommand("compare", "Compare our remeshing with peer methods at one vertex count");
-  cmd->add_option("input", args->input, "Input mesh (.drc .obj .ply .off .stl)")->required();
+  cmd->add_option("input", args->input, "Input mesh (.drc .glb .gltf .obj .ply .off .stl)")->required();
   cmd->add_option("-n,--target-vertices", args->target, "Vertex count for every method")->required();
   cmd->add_option("--out", args->out_dir, "Write table.md, table.csv and contact_sheet.png here");
   cmd->add_flag("--json", args->json, "Print JSON instead of the table");

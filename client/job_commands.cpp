@@ -169,7 +169,7 @@ Command add_watch_command(CLI::App& app) {
   auto args = std::make_shared<JobArgs>();
   CLI::App* cmd = add_job_subcommand(app, "watch", "Follow a job to its end and write its result", *args);
   add_reattach_flag(cmd, args->server);
-  cmd->add_option("-o,--output", args->output, "Output mesh (.drc .ply .obj)");
+  cmd->add_option("-o,--output", args->output, "Output mesh (.drc .glb .gltf .ply .obj)");
   cmd->add_option("--field-out", args->field_out,
                   "Write the RESULT colored by its saliency field (watch does not have the input mesh; "
                   "submit --field-out writes the input's field, as local does)");

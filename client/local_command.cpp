@@ -19,6 +19,7 @@ namespace {
 struct LocalArgs {
   std::string input, output, field_out, renderer = "auto";
   bool json = false;
+  bool no_draco = false;  // .glb/.gltf output with plain accessors
   int threads = 0;
   PipelineFlagValues flags;
   PipelineOptions options;
@@ -60,7 +61,9 @@ int run_local(LocalArgs& a) {
   if (!result.ok()) return fail(result.status());
 
   start = std::chrono::steady_clock::now();
-  if (Status s = write_mesh(a.output, result->mesh, result->saliency.data()); !s.ok()) return fail(s);
+  DracoOptions written;
+  written.gltf_draco = !a.no_draco;
+  if (Status s = write_mesh(a.output, result->mesh, result->saliency.data(), written); !s.ok()) return fail(s);
   summary.write_ms = ms_since(start);
   summary.output_vertices = result->mesh.vertex_count();
   summary.output_faces = result->mesh.face_count();
@@ -81,8 +84,9 @@ Command add_local_command(CLI::App& app) {
   auto args = std::make_shared<LocalArgs>();
   PipelineOptions& o = args->options;
   CLI::App* cmd = app.add_subcommand("local", "Remesh a file in this process (no server)");
-  cmd->add_option("input", args->input, "Input mesh (.drc .obj .ply .off .stl)")->required();
-  cmd->add_option("-o,--output", args->output, "Output mesh (.drc .ply .obj)")->required();
+  cmd->add_option("input", args->input, "Input mesh (.drc .glb .gltf .obj .ply .off .stl)")->required();
+  cmd->add_option("-o,--output", args->output, "Output mesh (.drc .glb .gltf .ply .obj)")->required();
+  cmd->add_flag("--no-draco", args->no_draco, "Write .glb/.gltf output without KHR_draco_mesh_compression");
   add_pipeline_flags(cmd, o, args->flags);
   cmd->add_option("--renderer", args->renderer, "auto, egl or osmesa")->capture_default_str();
   cmd->add_option("--field-out", args->field_out, "Write the input mesh colored by its saliency field (.ply)");

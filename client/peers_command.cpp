@@ -87,7 +87,7 @@ int run_peers(const PeersArgs& a) {
 Command add_peers_command(CLI::App& app) {
   auto args = std::make_shared<PeersArgs>();
   CLI::App* cmd = app.add_subcommand("peers", "Run the peer methods of `compare` and write their meshes");
-  cmd->add_option("input", args->input, "Input mesh (.drc .obj .ply .off .stl)")->required();
+  cmd->add_option("input", args->input, "Input mesh (.drc .glb .gltf .obj .ply .off .stl)")->required();
   cmd->add_option("-n,--target-vertices", args->target, "Vertex count for every method")
       ->required()
       ->check(CLI::PositiveNumber);

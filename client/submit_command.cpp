@@ -171,8 +171,8 @@ StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantiz
 Command add_submit_command(CLI::App& app) {
   auto args = std::make_shared<SubmitArgs>();
   CLI::App* cmd = app.add_subcommand("submit", "Remesh a file on a vpremesh-server");
-  cmd->add_option("input", args->input, "Input mesh (.drc .obj .ply .off .stl)")->required();
-  cmd->add_option("-o,--output", args->output, "Output mesh (.drc .ply .obj)");
+  cmd->add_option("input", args->input, "Input mesh (.drc .glb .gltf .obj .ply .off .stl)")->required();
+  cmd->add_option("-o,--output", args->output, "Output mesh (.drc .glb .gltf .ply .obj)");
   add_server_list_flags(cmd, args->server);
   add_reattach_flag(cmd, args->server);
   add_pipeline_flags(cmd, args->options, args->flags);

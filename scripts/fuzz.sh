@@ -2,7 +2,7 @@
 # Fuzzes each target for SECONDS (default 60) with libFuzzer + ASan/UBSan, one
 # after the other, and exits 1 if any found a crash, a sanitizer report, a
 # leak, a timeout or an out-of-memory (docs/fuzzing.md).
-#   scripts/fuzz.sh [SECONDS] [TARGET...]   targets: obj ply off stl draco pipeline (default: all)
+#   scripts/fuzz.sh [SECONDS] [TARGET...]   targets: obj ply off stl draco gltf pipeline (default: all)
 # Builds in build/sanitize (the `sanitize` preset, shared with `make
 # sanitize`). Seeds are generated into build/fuzz/seeds/TARGET; what a run
 # learns stays in build/fuzz/corpus/TARGET for the next run; findings land in
@@ -13,7 +13,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(obj ply off stl draco pipeline)
+[ ${#targets[@]} -gt 0 ] || targets=(obj ply off stl draco gltf pipeline)
 build=build/sanitize
 work=build/fuzz
 

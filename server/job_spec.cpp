@@ -139,7 +139,11 @@ Status job_options_from_spec(const v1::JobSpec& spec, JobOptions* out) {
   if (!v1::DevicePreference_IsValid(spec.device()))
     return invalid_argument("device is " + str(int(spec.device())) +
                             "; it must be DEVICE_ANY (0), DEVICE_CPU (1) or DEVICE_CUDA (2)");
+  if (!v1::InputFormat_IsValid(spec.input_format()))
+    return invalid_argument("input_format is " + str(int(spec.input_format())) +
+                            "; it must be INPUT_FORMAT_DRACO (0) or INPUT_FORMAT_GLTF_BINARY (1)");
   JobOptions o;
+  o.input_format = spec.input_format() == v1::INPUT_FORMAT_GLTF_BINARY ? MeshFormat::kGltf : MeshFormat::kDraco;
   o.pipeline.target_vertices = spec.target_vertices();
   VPR_RETURN_IF_ERROR(pipeline_options_from_proto(spec.options(), &o.pipeline));
   o.pipeline.keep_saliency_points = spec.return_saliency_points();

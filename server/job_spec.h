@@ -13,6 +13,7 @@
 
 #include <string>
 
+#include "io/mesh_io.h"
 #include "pipeline/pipeline.h"
 #include "core/status.h"
 #include "vpremesh/v1/remesh.pb.h"
@@ -40,6 +41,7 @@ struct JobOptions {
   int priority = 0;                                               // [-10, 10], higher first
   int result_quantization_bits = kDefaultResultQuantizationBits;  // [1, 30]
   v1::DevicePreference device = v1::DEVICE_ANY;
+  MeshFormat input_format = MeshFormat::kDraco;  // kDraco or kGltf (spec.input_format)
 };
 
 // Checks every field and fills *out. INVALID_ARGUMENT names the field (as in

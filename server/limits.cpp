@@ -28,11 +28,21 @@ Status check_upload_size(const ServerLimits& limits, uint64_t bytes, bool declar
   return Status::Ok();
 }
 
-Status check_upload_complete(uint64_t received, uint64_t declared, const uint8_t* head, size_t head_size) {
-  if (received == 0) return invalid_argument("the upload is empty: no mesh_chunk carried any bytes of a Draco file");
+Status check_upload_complete(uint64_t received, uint64_t declared, const uint8_t* head, size_t head_size,
+                             bool glb) {
+  if (received == 0)
+    return invalid_argument(std::string("the upload is empty: no mesh_chunk carried any bytes of a ") +
+                            (glb ? "glTF binary" : "Draco file"));
   if (declared != 0 && received != declared)
     return invalid_argument("received " + std::to_string(received) + " bytes but mesh_size_bytes declared " +
                             std::to_string(declared) + " (truncated or overlong upload)");
+  if (glb) {
+    if (head_size < 4 || std::memcmp(head, "glTF", 4) != 0)
+      return invalid_argument(
+          "the upload is not a glTF binary (it does not start with 'glTF') but input_format is "
+          "INPUT_FORMAT_GLTF_BINARY; send a .glb file");
+    return Status::Ok();
+  }
   if (head_size < 5 || std::memcmp(head, "DRACO", 5) != 0)
     return invalid_argument(
         "the upload is not a Draco file (it does not start with 'DRACO'); encode the mesh with "

@@ -31,8 +31,9 @@ Status check_chunk(size_t chunk_bytes);
 // RESOURCE_EXHAUSTED once the bytes received (or declared) pass the upload limit.
 Status check_upload_size(const ServerLimits& limits, uint64_t bytes, bool declared);
 // INVALID_ARGUMENT for an empty upload, a size that does not match the
-// declared one, or bytes that are not a Draco file.
-Status check_upload_complete(uint64_t received, uint64_t declared, const uint8_t* head, size_t head_size);
+// declared one, or bytes that are not a Draco file (glb: not a glTF binary).
+Status check_upload_complete(uint64_t received, uint64_t declared, const uint8_t* head, size_t head_size,
+                             bool glb = false);
 // INVALID_ARGUMENT outside [kMinTargetVertices, max_target_vertices].
 Status check_target(const ServerLimits& limits, uint32_t target_vertices);
 // RESOURCE_EXHAUSTED when `waiting` jobs already fill the queue.

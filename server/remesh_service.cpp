@@ -60,7 +60,9 @@ class Upload {
     if (!have_spec_) return bad("the upload is empty: no spec arrived");
     const auto& mesh = submission_.mesh;
     const std::string tenant = submission_.tenant;
-    if (Status s = check_upload_complete(mesh.size(), submission_.spec.mesh_size_bytes(), mesh.data(), mesh.size());
+    const bool glb = submission_.spec.input_format() == v1::INPUT_FORMAT_GLTF_BINARY;
+    if (Status s =
+            check_upload_complete(mesh.size(), submission_.spec.mesh_size_bytes(), mesh.data(), mesh.size(), glb);
         !s.ok())
       return to_grpc(s);
     if (service_.config().admission)

@@ -184,7 +184,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
     // The upload is freed as soon as it is decoded, the input mesh when the
     // pipeline returns.
     step("decode");
-    auto mesh = parse_mesh(job.mesh.data(), job.mesh.size(), MeshFormat::kDraco, ctx.limits.mesh_limits());
+    auto mesh = parse_mesh(job.mesh.data(), job.mesh.size(), options.input_format, ctx.limits.mesh_limits());
     job.mesh = {};
     job.mesh.shrink_to_fit();
     if (!mesh.ok()) return queue.publish(id, failed_event(explain_mesh_limit(mesh.status(), ctx.limits)));

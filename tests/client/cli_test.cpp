@@ -77,6 +77,64 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
   EXPECT_TRUE(fs::exists(path("debug/view_py_points.ply")));
 }
 
+// glTF in -> remesh -> out -> reread, on three inputs generated here from
+// spot (2,930 vertices): plain accessors; two nodes placing it twice with
+// different transforms (one surface of 5,860 vertices); Draco-compressed.
+TEST_F(CliTest, LocalGltfRoundTrips) {
+  auto spot = read_mesh("../shared/models/spot.obj");
+  ASSERT_TRUE(spot.ok()) << spot.status().to_string();
+  DracoOptions plain;
+  plain.gltf_draco = false;
+  ASSERT_TRUE(write_mesh(path("plain.glb"), *spot, nullptr, plain).ok());
+  ASSERT_TRUE(write_mesh(path("draco.glb"), *spot, nullptr).ok());
+  // The writer's .gltf has one node carrying the frame; a second node puts a
+  // copy 3 units along x, turned half a turn about y.
+  ASSERT_TRUE(write_mesh(path("one.gltf"), *spot, nullptr, plain).ok());
+  std::ifstream one(path("one.gltf"));
+  nlohmann::json two = nlohmann::json::parse(one);
+  nlohmann::json copy = {{"children", {0}}, {"translation", {3.0, 0.0, 0.0}}, {"rotation", {0.0, 1.0, 0.0, 0.0}}};
+  two["nodes"].push_back(copy);
+  two["scenes"][0]["nodes"] = {0, 1};
+  // Node 0 cannot be both a root and node 1's child: give the copy its own.
+  two["nodes"].push_back(two["nodes"][0]);
+  two["nodes"][1]["children"] = {2};
+  write("two.gltf", two.dump());
+
+  struct Case {
+    const char* input;
+    int vertices;
+    const char* output;
+    bool draco_out;
+  } cases[] = {{"plain.glb", 2930, "plain_out.glb", true},
+               {"two.gltf", 5860, "two_out.glb", false},
+               {"draco.glb", 2930, "draco_out.gltf", true}};
+  for (const Case& c : cases) {
+    const std::string out = path(c.output);
+    CliRun r = run_cli("local " + path(c.input) + " -o " + out + " --target-vertices 800 --json" +
+                       (c.draco_out ? "" : " --no-draco"));
+    ASSERT_EQ(r.code, 0) << c.input << ": " << r.all();
+    const nlohmann::json j = nlohmann::json::parse(r.all());
+    EXPECT_EQ(j["input"]["vertices"], c.vertices) << c.input;
+    const int v = j["output"]["vertices"];
+    EXPECT_NEAR(v, 800, 16) << c.input;
+    auto mesh = read_mesh(out);
+    ASSERT_TRUE(mesh.ok()) << out << ": " << mesh.status().to_string();
+    EXPECT_EQ(int(mesh->vertex_count()), v) << out;
+    auto saliency = read_saliency(out);
+    ASSERT_TRUE(saliency.ok());
+    EXPECT_EQ(saliency->size(), mesh->vertex_count()) << out;
+    std::ifstream f(out, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(bytes.find("KHR_draco_mesh_compression") != std::string::npos, c.draco_out) << out;
+    EXPECT_NE(bytes.find("_SALIENCY"), std::string::npos) << out;
+    // The output spans what the input spans (both copies for two.gltf).
+    auto input = read_mesh(path(c.input));
+    ASSERT_TRUE(input.ok());
+    EXPECT_NEAR(mesh->scale, input->scale, 0.02 * input->scale) << out;
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(mesh->origin[size_t(a)], input->origin[size_t(a)], 0.02 * input->scale) << out;
+  }
+}
+
 // Issue 19: a model moved up to 1e7 away, or resized by 1e-6 .. 1e6, remeshes
 // to the same output moved or resized (within 1e-5 of the diagonal, same
 // counts); unused vertices change nothing and are reported.

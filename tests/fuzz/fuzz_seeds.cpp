@@ -6,7 +6,7 @@
 // binary, both endians, quads, Draco's two codecs, with saliency), and the
 // same shapes in the pipeline fuzzer's encoding (pipeline_input.h).
 //   fuzz_seeds OUT_DIR MODELS_DIR [EXTRA_MESH...]
-// writes OUT_DIR/{obj,ply,off,stl,draco,pipeline}/<name>.
+// writes OUT_DIR/{obj,ply,off,stl,draco,gltf,pipeline}/<name>.
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
@@ -235,6 +235,18 @@ void write_draco(const fs::path& base, const Mesh& m) {
   }
 }
 
+// Plain and Draco-compressed GLB, and .gltf text with a data: URI, with
+// saliency as _SALIENCY.
+void write_gltf(const fs::path& base, const Mesh& m) {
+  std::vector<float> saliency(m.vertex_count());
+  for (size_t v = 0; v < saliency.size(); ++v) saliency[v] = float(v % 5) / 5;
+  DracoOptions plain;
+  plain.gltf_draco = false;
+  if (auto b = encode_gltf(m, saliency.data(), plain, true); b.ok()) write(base.string() + ".glb", *b);
+  if (auto b = encode_gltf(m, nullptr, DracoOptions{}, true); b.ok()) write(base.string() + "-draco.glb", *b);
+  if (auto b = encode_gltf(m, nullptr, plain, false); b.ok()) write(base.string() + ".gltf", *b);
+}
+
 void write_pipeline(const fs::path& dir, const std::string& name, const Mesh& m) {
   fuzz::PipelineInput in;
   in.mesh = m.vertex_count() > fuzz::kMaxVertices ? patch(m, 2 * fuzz::kMaxVertices / 3) : m;
@@ -262,6 +274,7 @@ void write_all(const fs::path& out, const std::string& name, const Mesh& m) {
   write(out / "stl" / (name + "-ascii.stl"), ascii_stl(m));
   write(out / "stl" / (name + "-binary.stl"), binary_stl(m));
   write_draco(out / "draco" / name, m);
+  write_gltf(out / "gltf" / name, m);
   write_pipeline(out / "pipeline", name, m);
 }
 
@@ -273,7 +286,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const fs::path out = argv[1];
-  for (const char* d : {"obj", "ply", "off", "stl", "draco", "pipeline"}) fs::create_directories(out / d);
+  for (const char* d : {"obj", "ply", "off", "stl", "draco", "gltf", "pipeline"}) fs::create_directories(out / d);
 
   std::vector<std::pair<std::string, Mesh>> shapes;
   const Mesh sphere = testing::icosphere(2);

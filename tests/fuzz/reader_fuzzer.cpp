@@ -1,5 +1,5 @@
 // libFuzzer harness for one mesh reader, built once per format
-// (VPR_FUZZ_FORMAT = Obj, Ply, Off, Stl or Draco) so that each has its own
+// (VPR_FUZZ_FORMAT = Obj, Ply, Off, Stl, Draco or Gltf) so that each has its own
 // coverage and corpus. Every reader sees bytes from the network or a user's
 // disk. parse_mesh must return an error or a mesh that validate_mesh accepts;
 // an accepted mesh must come back through our PLY and OBJ writers and readers
@@ -88,6 +88,20 @@ void draco_round_trip(const Mesh& mesh, const MeshLimits& limits) {
               "Draco write and read changed it", true);
 }
 
+// Our glTF writer with plain accessors keeps every vertex and face; the
+// floats are recomputed in the reader's frame, so within a float's precision.
+void gltf_round_trip(const Mesh& mesh, const MeshLimits& limits) {
+  DracoOptions plain;
+  plain.gltf_draco = false;
+  auto glb = encode_gltf(mesh, nullptr, plain, true);
+  if (!glb.ok()) {
+    std::fprintf(stderr, "%s\n", glb.status().to_string().c_str());
+    fail("glTF cannot encode a mesh it read");
+  }
+  expect_same(mesh, parse_mesh(glb->data(), glb->size(), MeshFormat::kGltf, limits), "glTF write and read changed it",
+              false);
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -98,12 +112,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (!validate_mesh(*mesh, limits).ok()) fail("parse_mesh returned a mesh that validate_mesh refuses");
     round_trip(*mesh, limits);
     if (kFormat == MeshFormat::kDraco) draco_round_trip(*mesh, limits);
+    if (kFormat == MeshFormat::kGltf) gltf_round_trip(*mesh, limits);
   }
   // The saliency attribute (PLY property, Draco attribute) on the same bytes.
   std::vector<float> saliency;
   StatusOr<Mesh> with_saliency = invalid_argument("not read");
   if (size > 0 && kFormat == MeshFormat::kPly) with_saliency = io_detail::parse_ply(data, size, limits, &saliency);
   if (size > 0 && kFormat == MeshFormat::kDraco) with_saliency = io_detail::parse_draco(data, size, limits, &saliency);
+  if (size > 0 && kFormat == MeshFormat::kGltf)
+    with_saliency = io_detail::parse_gltf(data, size, limits, &saliency, nullptr);
   if (with_saliency.ok()) {
     if (!saliency.empty() && saliency.size() != with_saliency->vertex_count())
       fail("saliency is not one value per vertex");

@@ -175,13 +175,15 @@ TEST(FormatFromPath, KnownExtensionsAnyCase) {
   EXPECT_EQ(*format_from_path("mesh.Ply"), MeshFormat::kPly);
   EXPECT_EQ(*format_from_path("x.y.off"), MeshFormat::kOff);
   EXPECT_EQ(*format_from_path("mesh.STL"), MeshFormat::kStl);
+  EXPECT_EQ(*format_from_path("scene.GLB"), MeshFormat::kGltf);
+  EXPECT_EQ(*format_from_path("scene.gltf"), MeshFormat::kGltf);
 }
 
 TEST(FormatFromPath, UnknownExtensionNamesTheSupportedOnes) {
   auto f = format_from_path("mesh.xyz");
   ASSERT_FALSE(f.ok());
   EXPECT_EQ(f.status().code(), StatusCode::kInvalidArgument);
-  EXPECT_EQ(f.status().message(), "unsupported format '.xyz' (supported: .drc .obj .ply .off .stl)");
+  EXPECT_EQ(f.status().message(), "unsupported format '.xyz' (supported: .drc .glb .gltf .obj .ply .off .stl)");
   auto none = format_from_path("mesh");
   ASSERT_FALSE(none.ok());
   EXPECT_NE(none.status().message().find("no file extension"), std::string::npos);
@@ -705,10 +707,10 @@ TEST(RoundTrip, WriterErrors) {
   const Mesh cube = cube_mesh();
   Status s = write_mesh(dir.file("cube.xyz"), cube, nullptr);
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("(supported: .drc .obj .ply .off .stl)"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("(supported: .drc .glb .gltf .obj .ply .off .stl)"), std::string::npos) << s.message();
   s = write_mesh(dir.file("cube.stl"), cube, nullptr);
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("output formats: .drc .obj .ply"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("output formats: .drc .glb .gltf .obj .ply"), std::string::npos) << s.message();
   s = write_mesh(dir.file("missing_dir/cube.ply"), cube, nullptr);
   EXPECT_EQ(s.code(), StatusCode::kNotFound) << s.to_string();
   Mesh bad = cube;

@@ -34,6 +34,11 @@ TEST(JobSpec, ZeroFieldsTakeThePipelineDefaults) {
   EXPECT_EQ(o.pipeline.awlop.support, AwlopSupport::kTargetSpacing);
   EXPECT_EQ(o.result_quantization_bits, kDefaultResultQuantizationBits);
   EXPECT_EQ(o.device, v1::DEVICE_ANY);
+  EXPECT_EQ(o.input_format, MeshFormat::kDraco);
+  v1::JobSpec gltf = spec_with_target(5000);
+  gltf.set_input_format(v1::INPUT_FORMAT_GLTF_BINARY);
+  ASSERT_TRUE(job_options_from_spec(gltf, &o).ok());
+  EXPECT_EQ(o.input_format, MeshFormat::kGltf);
 }
 
 TEST(JobSpec, RoundTripKeepsEveryOption) {
@@ -130,6 +135,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadField{"priority", [](v1::JobSpec* s) { s->set_priority(11); }},
         BadField{"result_quantization_bits", [](v1::JobSpec* s) { s->set_result_quantization_bits(31); }},
         BadField{"device", [](v1::JobSpec* s) { s->set_device(v1::DevicePreference(7)); }},
+        BadField{"input_format", [](v1::JobSpec* s) { s->set_input_format(v1::InputFormat(5)); }},
         BadField{"options.views", [](v1::JobSpec* s) { s->mutable_options()->set_views(8); }},
         BadField{"options.resolution", [](v1::JobSpec* s) { s->mutable_options()->set_resolution(32); }},
         BadField{"options.rotation", [](v1::JobSpec* s) { s->mutable_options()->add_rotation(1); }},

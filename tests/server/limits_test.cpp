@@ -70,6 +70,11 @@ TEST(Limits, UploadMustBeANonEmptyDracoFileOfTheDeclaredSize) {
   expect_names(check_upload_complete(0, 0, nullptr, 0), StatusCode::kInvalidArgument, "empty");
   expect_names(check_upload_complete(7, 9, draco, 7), StatusCode::kInvalidArgument, "mesh_size_bytes");
   expect_names(check_upload_complete(7, 0, ply, 7), StatusCode::kInvalidArgument, "not a Draco file");
+  // input_format INPUT_FORMAT_GLTF_BINARY: a GLB header, and only that.
+  const uint8_t glb[] = {'g', 'l', 'T', 'F', 2, 0, 0};
+  EXPECT_TRUE(check_upload_complete(7, 7, glb, 7, true).ok());
+  expect_names(check_upload_complete(7, 0, draco, 7, true), StatusCode::kInvalidArgument, "not a glTF binary");
+  expect_names(check_upload_complete(0, 0, nullptr, 0, true), StatusCode::kInvalidArgument, "glTF binary");
 }
 
 }  // namespace

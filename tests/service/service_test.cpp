@@ -325,6 +325,65 @@ TEST_F(ServiceTest, CorruptDracoIsInvalidArgument) {
   EXPECT_EQ(obj.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << obj.status.error_message();
 }
 
+// The GLB container around a JSON document and a BIN chunk (glTF 2.0, 4.4).
+std::vector<uint8_t> glb_with(const nlohmann::json& root, std::string bin) {
+  std::string text = root.dump();
+  while (text.size() % 4) text += ' ';
+  while (bin.size() % 4) bin += '\0';
+  auto u32 = [](uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  const std::string out = "glTF" + u32(2) + u32(uint32_t(28 + text.size() + bin.size())) + u32(uint32_t(text.size())) +
+                          "JSON" + text + u32(uint32_t(bin.size())) + std::string("BIN\0", 4) + bin;
+  return std::vector<uint8_t>(out.begin(), out.end());
+}
+
+// input_format INPUT_FORMAT_GLTF_BINARY: a Draco-compressed .glb remeshes;
+// the same bytes as Draco, and a .glb declaring 1e9 indices in 23 KB, are
+// refused with one line each, and the server goes on serving.
+TEST_F(ServiceTest, GltfBinaryUploads) {
+  START_SERVER(server);
+  auto stub = make_stub(server->address());
+  const Mesh sphere = icosphere(3);  // 642 vertices
+  auto glb = encode_gltf(sphere, nullptr, DracoOptions{}, true);
+  ASSERT_TRUE(glb.ok()) << glb.status().to_string();
+  v1::JobSpec spec = make_spec(300, glb->size());
+  spec.set_input_format(v1::INPUT_FORMAT_GLTF_BINARY);
+  RemeshOutcome good = remesh(*stub, spec, *glb);
+  ASSERT_TRUE(good.status.ok() && good.completed()) << good.status.error_message();
+  EXPECT_EQ(good.last()->completed().input_vertices(), 642u);
+  auto result = parse_mesh(reinterpret_cast<const uint8_t*>(good.result.data()), good.result.size(), MeshFormat::kDraco);
+  ASSERT_TRUE(result.ok()) << result.status().to_string();
+  EXPECT_NEAR(double(result->vertex_count()), 300.0, 6.0);
+  EXPECT_EQ(good.saliency.size(), result->vertex_count());
+
+  RemeshOutcome as_draco = remesh(*stub, make_spec(300, glb->size()), *glb);
+  EXPECT_EQ(as_draco.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(as_draco.status.error_message().find("not a Draco file"), std::string::npos)
+      << as_draco.status.error_message();
+
+  // Plain accessors, then the index accessor's count raised to 1e9.
+  DracoOptions plain;
+  plain.gltf_draco = false;
+  auto bytes = encode_gltf(sphere, nullptr, plain, true);
+  ASSERT_TRUE(bytes.ok());
+  uint32_t json_size = 0;
+  std::memcpy(&json_size, bytes->data() + 12, 4);
+  nlohmann::json root = nlohmann::json::parse(bytes->begin() + 20, bytes->begin() + 20 + json_size);
+  root["accessors"][1]["count"] = 1000000000;
+  const size_t bin_at = 20 + json_size + 8;
+  const std::vector<uint8_t> hostile =
+      glb_with(root, std::string(bytes->begin() + std::ptrdiff_t(bin_at), bytes->end()));
+  ASSERT_LT(hostile.size(), size_t(1) << 16);
+  v1::JobSpec hostile_spec = make_spec(300, hostile.size());
+  hostile_spec.set_input_format(v1::INPUT_FORMAT_GLTF_BINARY);
+  RemeshOutcome refused = remesh(*stub, hostile_spec, hostile);
+  EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.status.error_message();
+  EXPECT_NE(refused.status.error_message().find("the limit is"), std::string::npos) << refused.status.error_message();
+  EXPECT_EQ(refused.status.error_message().find('\n'), std::string::npos) << refused.status.error_message();
+
+  RemeshOutcome again = remesh(*stub, spec, *glb);
+  EXPECT_TRUE(again.status.ok() && again.completed()) << again.status.error_message();
+}
+
 // --max-queue 1 --workers 1: one job runs, one waits, the next is refused.
 TEST_F(ServiceTest, FullQueueIsResourceExhausted) {
   START_SERVER(server, {"--max-queue", "1", "--workers", "1", "--max-jobs-per-client", "8"});

@@ -42,7 +42,8 @@ constexpr uint64_t kMaxElementsPerByte = 1000;
 // checks them against the data: the edgebreaker corner table from num_faces,
 // metadata entries from their declared size, and it recurses once per level
 // of sub-metadata. A few hostile bytes could therefore ask for gigabytes or
-// overflow the stack. The pre-scan walks the same fields (bitstream 2.2, see
+// overflow the stack. The pre-scan walks the same fields (bitstreams 1.0 to
+// 2.2, whose layouts differ in count widths and fields; see
 // point_cloud_decoder.cc, metadata_decoder.cc, mesh_sequential_decoder.cc and
 // mesh_edgebreaker_decoder_impl.cc) and refuses counts beyond MeshLimits or
 // the bytes present, before the decoder allocates anything.
@@ -123,6 +124,29 @@ Status check_density(uint32_t count, size_t size, const char* what) {
   return Status::Ok();
 }
 
+// Bitstream versions whose connectivity header the pre-scan knows: 1.0 to 1.3
+// and 2.0 to 2.2, every one libdraco 1.5 reads (major 0 it refuses).
+bool known_version(uint8_t major, uint8_t minor) { return (major == 1 && minor <= 3) || (major == 2 && minor <= 2); }
+
+// A count the connectivity header stores: a little-endian uint32 before
+// bitstream 2.0, a varint from 2.0 on (mesh_edgebreaker_decoder_impl.cc,
+// DecodeConnectivity).
+bool read_count(ByteReader* r, bool fixed_width, uint32_t* v) {
+  if (!fixed_width) return r->varint(v);
+  uint8_t b[4];
+  for (uint8_t& x : b)
+    if (!r->u8(&x)) return false;
+  *v = uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
+  return true;
+}
+
+Status check_vertices_and_faces(uint32_t vertices, uint32_t faces, size_t size, const MeshLimits& limits) {
+  VPR_RETURN_IF_ERROR(check_count(faces, limits.max_faces, "faces"));
+  VPR_RETURN_IF_ERROR(check_count(vertices, limits.max_vertices, "vertices"));
+  VPR_RETURN_IF_ERROR(check_density(faces, size, "faces"));
+  return check_density(vertices, size, "vertices");
+}
+
 Status prescan_draco(const uint8_t* data, size_t size, const MeshLimits& limits) {
   if (size < 5 || std::memcmp(data, "DRACO", 5) != 0)
     return invalid_argument("Draco: the data does not start with 'DRACO' (not a Draco file)");
@@ -133,11 +157,14 @@ Status prescan_draco(const uint8_t* data, size_t size, const MeshLimits& limits)
   if (type == 0)
     return invalid_argument("Draco: no faces: the input is a point cloud, a triangle mesh or polygon soup is required");
   if (type != 1) return invalid_argument("Draco: unknown geometry type " + std::to_string(type) + " (corrupt data)");
-  if (major != 2 || minor != 2)
+  if (!known_version(major, minor))
     return invalid_argument("Draco: bitstream version " + std::to_string(major) + "." + std::to_string(minor) +
-                            " is not supported (supported: 2.2, written by Draco 1.3 and later)");
+                            " is not supported (supported: 1.0 to 1.3 and 2.0 to 2.2)");
+  const int version = major * 256 + minor;  // DRACO_BITSTREAM_VERSION
+  const bool fixed_width = version < 0x200;
   const uint16_t flags = uint16_t(flags_lo | flags_hi << 8);
-  if (flags & 0x8000) {  // METADATA_FLAG_MASK
+  // Metadata exists from bitstream 1.3 on; older decoders ignore the flag.
+  if (version >= 0x103 && (flags & 0x8000)) {  // METADATA_FLAG_MASK
     uint32_t attribute_metadata = 0;
     if (!r.varint(&attribute_metadata)) return truncated("metadata");
     for (uint32_t i = 0; i < attribute_metadata; ++i) {
@@ -147,23 +174,23 @@ Status prescan_draco(const uint8_t* data, size_t size, const MeshLimits& limits)
     }
     VPR_RETURN_IF_ERROR(scan_metadata(&r, 0));
   }
-  if (method == 0) {  // MESH_SEQUENTIAL_ENCODING
+  if (method == 0) {  // MESH_SEQUENTIAL_ENCODING (mesh_sequential_decoder.cc): uint32 before 2.2
     uint32_t faces = 0, points = 0;
-    if (!r.varint(&faces) || !r.varint(&points)) return truncated("connectivity header");
-    VPR_RETURN_IF_ERROR(check_count(faces, limits.max_faces, "faces"));
-    VPR_RETURN_IF_ERROR(check_count(points, limits.max_vertices, "vertices"));
-    VPR_RETURN_IF_ERROR(check_density(faces, size, "faces"));
-    VPR_RETURN_IF_ERROR(check_density(points, size, "vertices"));
-  } else if (method == 1) {  // MESH_EDGEBREAKER_ENCODING
+    const bool fixed = version < 0x202;
+    if (!read_count(&r, fixed, &faces) || !read_count(&r, fixed, &points)) return truncated("connectivity header");
+    VPR_RETURN_IF_ERROR(check_vertices_and_faces(points, faces, size, limits));
+  } else if (method == 1) {  // MESH_EDGEBREAKER_ENCODING (mesh_edgebreaker_decoder_impl.cc)
     uint8_t traversal = 0, attribute_data = 0;
-    uint32_t vertices = 0, faces = 0, symbols = 0, split_symbols = 0;
-    if (!r.u8(&traversal) || !r.varint(&vertices) || !r.varint(&faces) || !r.u8(&attribute_data) ||
-        !r.varint(&symbols) || !r.varint(&split_symbols))
+    uint32_t new_vertices = 0, vertices = 0, faces = 0, symbols = 0, split_symbols = 0;
+    if (!r.u8(&traversal)) return truncated("connectivity header");
+    // Before 2.2 the stream names the vertices added to split non-manifold ones.
+    if (version < 0x202 && !read_count(&r, fixed_width, &new_vertices)) return truncated("connectivity header");
+    if (!read_count(&r, fixed_width, &vertices) || !read_count(&r, fixed_width, &faces) || !r.u8(&attribute_data) ||
+        !read_count(&r, fixed_width, &symbols) || !read_count(&r, fixed_width, &split_symbols))
       return truncated("connectivity header");
-    VPR_RETURN_IF_ERROR(check_count(faces, limits.max_faces, "faces"));
-    VPR_RETURN_IF_ERROR(check_count(vertices, limits.max_vertices, "vertices"));
-    VPR_RETURN_IF_ERROR(check_density(faces, size, "faces"));
-    VPR_RETURN_IF_ERROR(check_density(vertices, size, "vertices"));
+    VPR_RETURN_IF_ERROR(check_vertices_and_faces(vertices, faces, size, limits));
+    VPR_RETURN_IF_ERROR(check_count(new_vertices, limits.max_vertices, "added vertices"));
+    VPR_RETURN_IF_ERROR(check_density(new_vertices, size, "added vertices"));
     // Each split symbol is one of the symbols, and there is at most one symbol per face.
     if (symbols > faces || split_symbols > symbols)
       return invalid_argument("Draco: inconsistent connectivity header (" + std::to_string(symbols) + " symbols, " +

@@ -252,7 +252,7 @@ namespace {
 
 using namespace io_detail;
 
-constexpr const char* kSupported = "(supported: .drc .obj .ply .off .stl)";
+constexpr const char* kSupported = "(supported: .drc .glb .gltf .obj .ply .off .stl)";
 
 const char* format_name(MeshFormat format) {
   switch (format) {
@@ -266,6 +266,8 @@ const char* format_name(MeshFormat format) {
       return "OFF";
     case MeshFormat::kStl:
       return "STL";
+    case MeshFormat::kGltf:
+      return "glTF";
   }
   return "mesh";
 }
@@ -277,7 +279,7 @@ Status prefixed(const Status& status, const std::string& prefix) {
 }
 
 StatusOr<Mesh> parse_format(const uint8_t* data, size_t size, MeshFormat format, const MeshLimits& limits,
-                            std::vector<float>* saliency) {
+                            std::vector<float>* saliency, const std::string* base_dir) {
   switch (format) {
     case MeshFormat::kDraco:
       return parse_draco(data, size, limits, saliency);
@@ -289,18 +291,20 @@ StatusOr<Mesh> parse_format(const uint8_t* data, size_t size, MeshFormat format,
       return parse_off(data, size, limits);
     case MeshFormat::kStl:
       return parse_stl(data, size, limits);
+    case MeshFormat::kGltf:
+      return parse_gltf(data, size, limits, saliency, base_dir);
   }
   return internal_error("unknown MeshFormat " + std::to_string(int(format)));
 }
 
 StatusOr<Mesh> parse_any(const uint8_t* data, size_t size, MeshFormat format, const MeshLimits& limits,
-                         std::vector<float>* saliency) {
+                         std::vector<float>* saliency, const std::string* base_dir = nullptr) {
   assert(data != nullptr || size == 0);
   if (saliency) saliency->clear();
   const std::string name = format_name(format);
   if (size == 0) return invalid_argument(name + ": the input is empty (0 bytes)");
   try {
-    StatusOr<Mesh> parsed = parse_format(data, size, format, limits, saliency);
+    StatusOr<Mesh> parsed = parse_format(data, size, format, limits, saliency, base_dir);
     if (!parsed.ok()) return parsed.status();
     // NaN/Inf, empty, point cloud, index range and size limits, reported the
     // same way for every format.
@@ -318,6 +322,12 @@ StatusOr<Mesh> parse_any(const uint8_t* data, size_t size, MeshFormat format, co
   }
 }
 
+// The folder a glTF file's relative external buffers are read from.
+std::string folder_of(const std::string& path) {
+  const std::string parent = std::filesystem::path(path).parent_path().string();
+  return parent.empty() ? "." : parent;
+}
+
 }  // namespace
 
 StatusOr<MeshFormat> format_from_path(const std::string& path) {
@@ -331,6 +341,7 @@ StatusOr<MeshFormat> format_from_path(const std::string& path) {
   if (lower == ".ply") return MeshFormat::kPly;
   if (lower == ".off") return MeshFormat::kOff;
   if (lower == ".stl") return MeshFormat::kStl;
+  if (lower == ".glb" || lower == ".gltf") return MeshFormat::kGltf;
   return invalid_argument("unsupported format '" + ext + "' " + kSupported);
 }
 
@@ -341,7 +352,8 @@ StatusOr<Mesh> parse_mesh(const uint8_t* data, size_t size, MeshFormat format, c
 StatusOr<Mesh> read_mesh(const std::string& path, const MeshLimits& limits) {
   VPR_ASSIGN_OR_RETURN(const MeshFormat format, format_from_path(path));
   VPR_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes, read_file(path));
-  StatusOr<Mesh> mesh = parse_any(bytes.data(), bytes.size(), format, limits, nullptr);
+  const std::string folder = folder_of(path);
+  StatusOr<Mesh> mesh = parse_any(bytes.data(), bytes.size(), format, limits, nullptr, &folder);
   if (!mesh.ok()) return prefixed(mesh.status(), path + ": ");
   return mesh;
 }
@@ -350,8 +362,9 @@ StatusOr<std::vector<float>> read_saliency(const std::string& path) {
   VPR_ASSIGN_OR_RETURN(const MeshFormat format, format_from_path(path));
   VPR_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes, read_file(path));
   std::vector<float> saliency;
-  // Only Draco and PLY carry the value itself; OBJ colors are a lossy ramp.
-  StatusOr<Mesh> mesh = parse_any(bytes.data(), bytes.size(), format, MeshLimits{}, &saliency);
+  // Only Draco, glTF and PLY carry the value itself; OBJ colors are a lossy ramp.
+  const std::string folder = folder_of(path);
+  StatusOr<Mesh> mesh = parse_any(bytes.data(), bytes.size(), format, MeshLimits{}, &saliency, &folder);
   if (!mesh.ok()) return prefixed(mesh.status(), path + ": ");
   return saliency;
 }
@@ -365,6 +378,12 @@ Status write_mesh(const std::string& path, const Mesh& mesh, const float* salien
       VPR_ASSIGN_OR_RETURN(bytes, encode_draco(mesh, saliency, options));
       break;
     }
+    case MeshFormat::kGltf: {
+      const std::string ext = std::filesystem::path(path).extension().string();
+      const bool binary = ext.size() == 4;  // ".glb"; ".gltf" is JSON
+      VPR_ASSIGN_OR_RETURN(bytes, encode_gltf(mesh, saliency, options, binary));
+      break;
+    }
     case MeshFormat::kPly:
       bytes = encode_ply(mesh, saliency);
       break;
@@ -374,7 +393,7 @@ Status write_mesh(const std::string& path, const Mesh& mesh, const float* salien
     case MeshFormat::kOff:
     case MeshFormat::kStl:
       return invalid_argument("cannot write '" + path + "': " + format_name(format) +
-                              " is an input format only (output formats: .drc .obj .ply)");
+                              " is an input format only (output formats: .drc .glb .gltf .obj .ply)");
   }
   return write_file(path, bytes);
 }

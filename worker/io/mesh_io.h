@@ -1,8 +1,10 @@
 // Reading and writing meshes. Input: Draco (.drc, the service's wire format),
-// OBJ, PLY (ASCII and binary), OFF and STL (ASCII and binary). Polygons are
-// triangulated as fans; soups are kept as they are (STL corners at exactly the
-// same position are merged, first occurrence first). Output: .drc, .ply, .obj,
-// with an optional per-vertex saliency value.
+// glTF 2.0 (.glb, .gltf; every triangle primitive of the scene with its node
+// transforms, KHR_draco_mesh_compression included), OBJ, PLY (ASCII and
+// binary), OFF and STL (ASCII and binary). Polygons are triangulated as fans;
+// soups are kept as they are (STL corners at exactly the same position are
+// merged, first occurrence first). Output: .drc, .glb, .gltf, .ply, .obj, with
+// an optional per-vertex saliency value.
 #pragma once
 
 #include <cstdint>
@@ -14,7 +16,8 @@
 
 namespace vpr {
 
-enum class MeshFormat { kDraco, kObj, kPly, kOff, kStl };
+// kGltf: .glb or .gltf, told apart by the bytes (GLB starts with "glTF").
+enum class MeshFormat { kDraco, kObj, kPly, kOff, kStl, kGltf };
 
 // From the file extension (case-insensitive); error names the supported ones.
 StatusOr<MeshFormat> format_from_path(const std::string& path);
@@ -24,6 +27,8 @@ StatusOr<MeshFormat> format_from_path(const std::string& path);
 // RESOURCE_EXHAUSTED when counts (from the header where the format has one)
 // pass the limits; the result is checked with validate_mesh(limits).
 // read_mesh: NOT_FOUND for a missing file; messages start with the path.
+// glTF external buffers (a uri naming a file) are read by read_mesh only,
+// relative to the file's folder; parse_mesh (an upload) refuses them.
 StatusOr<Mesh> parse_mesh(const uint8_t* data, size_t size, MeshFormat format, const MeshLimits& limits = {});
 StatusOr<Mesh> read_mesh(const std::string& path, const MeshLimits& limits = {});
 
@@ -40,16 +45,25 @@ struct DracoOptions {
   // edgebreaker, which reorders vertices, drops degenerate (repeated-index)
   // faces and splits non-manifold vertices.
   int speed = 5;
+  // .glb/.gltf output: the primitive as a KHR_draco_mesh_compression
+  // bitstream (with the settings above); false, or position_bits 0: plain
+  // float accessors.
+  bool gltf_draco = true;
 };
 
 // saliency: nullptr or #V floats in [0, 1]. Draco stores it as a GENERIC
 // attribute whose metadata name is "saliency"; PLY as a vertex property
 // "saliency" plus red/green/blue from a color ramp; OBJ as vertex colors.
 StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* saliency, const DracoOptions& options);
-// .drc, .ply or .obj by extension (.off and .stl are input formats only).
+// glTF 2.0: one node holding the mesh frame (translation = origin, scale),
+// one triangle primitive; saliency as the float vertex attribute _SALIENCY.
+// binary: GLB, else JSON with the buffer as a base64 data: URI.
+StatusOr<std::vector<uint8_t>> encode_gltf(const Mesh& mesh, const float* saliency, const DracoOptions& options,
+                                           bool binary);
+// .drc, .glb, .gltf, .ply or .obj by extension (.off and .stl are input formats only).
 Status write_mesh(const std::string& path, const Mesh& mesh, const float* saliency, const DracoOptions& options = {});
 
-// Reads back the saliency attribute of a Draco file or PLY (empty if absent).
+// Reads back the saliency attribute of a Draco, glTF or PLY file (empty if absent).
 StatusOr<std::vector<float>> read_saliency(const std::string& path);
 
 // Points as a binary PLY (debug output): points #N x 3, optional colors #N x 3 bytes.

@@ -24,6 +24,9 @@ StatusOr<Mesh> parse_ply(const uint8_t* data, size_t size, const MeshLimits& lim
 StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& limits);
 StatusOr<Mesh> parse_stl(const uint8_t* data, size_t size, const MeshLimits& limits);
 StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency);
+// base_dir: the folder external buffers are read from; nullptr refuses them.
+StatusOr<Mesh> parse_gltf(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency,
+                          const std::string* base_dir);
 
 // ---- Shared text scanning (implemented in mesh_io.cpp) ----------------------
 
