@@ -7,13 +7,6 @@
 
 namespace vpr {
 
-bool MeshEdges::adjacent(uint32_t a, uint32_t b) const { return std::binary_search(begin(a), end(a), b); }
-
-uint32_t MeshEdges::entry(uint32_t a, uint32_t b) const {
-  const uint32_t* it = std::lower_bound(begin(a), end(a), b);
-  return it != end(a) && *it == b ? uint32_t(it - neighbor.data()) : UINT32_MAX;
-}
-
 MeshEdges mesh_edges(const Mesh& mesh) { return mesh_edges(mesh.indices, mesh.vertex_count()); }
 
 MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count) {
