@@ -178,6 +178,80 @@ TEST(SurfaceRefineTest, SplitsLongEdgesAndKeepsTheShape) {
     ASSERT_NEAR(r->value[v], r->mesh.positions[3 * v], 1e-6);
 }
 
+TEST(MeshEdgesTest, RowsMatchTheFacesEdges) {
+  // Against a map of every face edge: each row holds the vertex's distinct
+  // neighbours in ascending order, each with the number of faces that use
+  // the edge; an open tube has boundary edges (one face) at both ends.
+  const Mesh m = tube(1.0, 2.0, 17, 5);
+  std::map<std::pair<uint32_t, uint32_t>, uint32_t> uses;
+  for (size_t f = 0; f < m.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = m.indices[3 * f + c], b = m.indices[3 * f + (c + 1) % 3];
+      ++uses[{a, b}];
+      ++uses[{b, a}];
+    }
+  const MeshEdges e = mesh_edges(m);
+  ASSERT_EQ(e.vertex_count(), m.vertex_count());
+  ASSERT_EQ(e.neighbor.size(), uses.size());
+  size_t i = 0, boundary = 0;
+  for (const auto& [edge, n] : uses) {  // the map's order is the rows' order
+    ASSERT_GE(i, e.offset[edge.first]);
+    ASSERT_LT(i, e.offset[edge.first + 1]);
+    EXPECT_EQ(e.neighbor[i], edge.second);
+    EXPECT_EQ(e.faces[i], n);
+    EXPECT_EQ(e.entry(edge.first, edge.second), i);
+    boundary += n == 1;
+    ++i;
+  }
+  EXPECT_EQ(boundary, 2u * 2 * 17);  // two loops of 17 edges, each edge in both rows
+  EXPECT_EQ(e.entry(0, 0), UINT32_MAX);
+}
+
+TEST(SurfaceRefineTest, WeldsDuplicatesAndSmoothsTheSameOnAnyThreadCount) {
+  // Refinement and density smoothing run in parallel: positions, faces,
+  // values and the smoothed channel must not depend on the thread count. The
+  // box's faces are separate grids sharing border positions, so the weld
+  // (lowest index first) is exercised too: a closed, welded result.
+  const Mesh input = box(1, 0.7, 0.4, 9);
+  std::vector<float> value(2 * input.vertex_count());
+  for (size_t v = 0; v < input.vertex_count(); ++v) {
+    value[2 * v] = input.positions[3 * v + 1];
+    value[2 * v + 1] = input.positions[3 * v] > 0.2f ? 3.0f : 0.5f;  // a jump for the smoothing to spread
+  }
+  RefinedSurface reference;
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    auto r = refine_surface(input, value, 2, 0.03, 10'000'000);
+    ASSERT_TRUE(r.ok());
+    auto between = [&](const std::vector<float>& values) {  // vertices the jump's spread has reached
+      size_t n = 0;
+      for (size_t v = 0; v < r->mesh.vertex_count(); ++v) {
+        EXPECT_GE(values[2 * v + 1], 0.5f);
+        EXPECT_LE(values[2 * v + 1], 3.0f);
+        n += values[2 * v + 1] > 0.5f && values[2 * v + 1] < 3.0f;
+      }
+      return n;
+    };
+    const size_t before = between(r->value);
+    smooth_over_edges(r->edges, 16, 2, 1, &r->value);
+    if (threads == 1) {
+      reference = *r;
+      EXPECT_EQ(count(r->mesh).boundary_edges, 0u);
+      EXPECT_GT(r->mesh.vertex_count(), 4 * input.vertex_count());
+      const MeshEdges e = mesh_edges(r->mesh);  // the by-product is the refined mesh's edges
+      EXPECT_EQ(r->edges.offset, e.offset);
+      EXPECT_EQ(r->edges.neighbor, e.neighbor);
+      EXPECT_EQ(r->edges.faces, e.faces);
+      EXPECT_GT(between(r->value), 4 * before);  // 16 passes spread the jump over several edges
+      continue;
+    }
+    EXPECT_EQ(r->mesh.positions, reference.mesh.positions) << threads << " threads";
+    EXPECT_EQ(r->mesh.indices, reference.mesh.indices) << threads << " threads";
+    EXPECT_EQ(r->face, reference.face) << threads << " threads";
+    EXPECT_EQ(r->value, reference.value) << threads << " threads";
+  }
+}
+
 TEST(SurfaceCvtTest, EnergyFallsEverySweepAndStopsOnItsTolerance) {
   CvtStats stats;
   const Mesh out = remesh(box(1, 0.7, 0.4, 12), 400, DensityMode::kUniform, &stats);

@@ -7,6 +7,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -432,24 +433,11 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
           const size_t limit = input.vertex_count() + size_t(64 * options.cvt_elements_per_vertex) * options.target_vertices;
           VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, max_edge, limit));
           // Over about two output spacings (elements are a quarter of one apart).
-          smooth_over_edges(refined.mesh, 16, 2, 1, &refined.value);
+          smooth_over_edges(refined.edges, 16, 2, 1, &refined.value);
           // A soup: most edges have one face even after welding.
-          std::vector<uint64_t> edges;
-          edges.reserve(refined.mesh.indices.size());
-          for (size_t f = 0; f < refined.mesh.face_count(); ++f)
-            for (int c = 0; c < 3; ++c) {
-              const uint64_t a = refined.mesh.indices[3 * f + c], b = refined.mesh.indices[3 * f + (c + 1) % 3];
-              edges.push_back(a < b ? (a << 32 | b) : (b << 32 | a));
-            }
-          std::sort(edges.begin(), edges.end());
-          size_t single = 0, distinct = 0;
-          for (size_t i = 0; i < edges.size();) {
-            size_t j = i;
-            while (j < edges.size() && edges[j] == edges[i]) ++j;
-            single += j - i == 1;
-            ++distinct;
-            i = j;
-          }
+          const size_t entries = refined.edges.neighbor.size();  // each edge twice
+          const size_t single = size_t(std::count(refined.edges.faces.begin(), refined.edges.faces.end(), 1u)) / 2;
+          const size_t distinct = entries / 2;
           soup = distinct == 0 || single * 4 > distinct;
           const std::vector<double> area = vertex_areas(refined.mesh);
           mass.resize(area.size());
@@ -470,7 +458,8 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
       VPR_RETURN_IF_ERROR(stage.run(
           "cvt", cpu,
           [&]() -> Status {
-            VPR_RETURN_IF_ERROR(surface_cvt(refined.mesh, mass, options.target_vertices, cvt, &label, &result.cvt));
+            VPR_RETURN_IF_ERROR(
+                surface_cvt(refined.mesh, refined.edges, mass, options.target_vertices, cvt, &label, &result.cvt));
             const auto& e = result.cvt.energy;
             char text[160];
             std::snprintf(text, sizeof text, "%d sweeps%s, energy %.4g -> %.4g", result.cvt.sweeps,

@@ -18,47 +18,7 @@ namespace {
 
 // Vertex adjacency in compressed rows, neighbours sorted; faces[i]: how
 // many faces the edge to neighbor[i] has (1: a boundary edge).
-struct Adjacency {
-  std::vector<uint32_t> offset, neighbor, faces;
-  size_t degree(uint32_t v) const { return offset[v + 1] - offset[v]; }
-  const uint32_t* begin(uint32_t v) const { return neighbor.data() + offset[v]; }
-  const uint32_t* end(uint32_t v) const { return neighbor.data() + offset[v + 1]; }
-  bool adjacent(uint32_t a, uint32_t b) const { return std::binary_search(begin(a), end(a), b); }
-};
-
-// Rows filled face by face, then each sorted and its repeats counted (no
-// global sort of all edges).
-Adjacency adjacency(const Mesh& mesh) {
-  const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
-  std::vector<uint32_t> start(nv + 1, 0);
-  for (size_t i = 0; i < 3 * nf; ++i) start[mesh.indices[i] + 1] += 2;
-  for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-  std::vector<uint32_t> raw(start[nv]), fill(start.begin(), start.end() - 1);
-  for (size_t f = 0; f < nf; ++f)
-    for (int c = 0; c < 3; ++c) {
-      const uint32_t a = mesh.indices[3 * f + c], b = mesh.indices[3 * f + (c + 1) % 3];
-      raw[fill[a]++] = b;
-      raw[fill[b]++] = a;
-    }
-  Adjacency adj;
-  adj.offset.assign(nv + 1, 0);
-  adj.neighbor.reserve(raw.size() / 2 + nv);
-  adj.faces.reserve(raw.size() / 2 + nv);
-  for (size_t v = 0; v < nv; ++v) {
-    uint32_t* row = raw.data() + start[v];
-    const size_t n = start[v + 1] - start[v];
-    std::sort(row, row + n);
-    for (size_t i = 0; i < n;) {
-      size_t j = i;
-      while (j < n && row[j] == row[i]) ++j;
-      adj.neighbor.push_back(row[i]);
-      adj.faces.push_back(uint32_t(j - i));
-      i = j;
-    }
-    adj.offset[v + 1] = uint32_t(adj.neighbor.size());
-  }
-  return adj;
-}
+using Adjacency = MeshEdges;
 
 struct Cluster {
   double m = 0;
@@ -269,13 +229,18 @@ std::vector<double> vertex_areas(const Mesh& mesh) {
   return area;
 }
 
-Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass_in, uint32_t count, const CvtOptions& options,
-                   std::vector<uint32_t>* label_out, CvtStats* stats) {
+Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass, uint32_t count, const CvtOptions& options,
+                   std::vector<uint32_t>* label, CvtStats* stats) {
+  return surface_cvt(mesh, mesh_edges(mesh), mass, count, options, label, stats);
+}
+
+Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<double>& mass_in, uint32_t count,
+                   const CvtOptions& options, std::vector<uint32_t>* label_out, CvtStats* stats) {
   const size_t nv = mesh.vertex_count();
   std::vector<double> mass = mass_in;  // raised where cells are split for topology
   if (mass.size() != nv) return invalid_argument("surface CVT: one mass per vertex expected");
+  if (adj.vertex_count() != nv) return invalid_argument("surface CVT: edges of another mesh");
   if (count < 1) return invalid_argument("surface CVT: at least one cluster");
-  const Adjacency adj = adjacency(mesh);
   std::vector<Vec3d> x(nv);
   for (size_t v = 0; v < nv; ++v) x[v] = load3d(mesh.positions.data(), v);
 

@@ -25,6 +25,7 @@
 
 #include "core/mesh.h"
 #include "core/status.h"
+#include "surface/mesh_edges.h"
 
 namespace vpr {
 
@@ -64,6 +65,9 @@ struct CvtStats {
 // clusters (more where cells were split for topology). mass: per element.
 Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass, uint32_t count, const CvtOptions& options,
                    std::vector<uint32_t>* label, CvtStats* stats);
+// The same with the mesh's edges already built (mesh_edges(mesh)).
+Status surface_cvt(const Mesh& mesh, const MeshEdges& edges, const std::vector<double>& mass, uint32_t count,
+                   const CvtOptions& options, std::vector<uint32_t>* label, CvtStats* stats);
 
 // A third of each incident face's area, per vertex.
 std::vector<double> vertex_areas(const Mesh& mesh);

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "core/median.h"
 #include "core/vec3.h"
 
@@ -100,31 +103,32 @@ std::vector<float> vertex_density(const std::vector<double>& h, const std::vecto
 }
 
 void smooth_over_edges(const Mesh& mesh, int iterations, int channels, int channel, std::vector<float>* values) {
-  const size_t nv = mesh.vertex_count();
-  std::vector<uint64_t> edges;
-  edges.reserve(mesh.indices.size());
-  for (size_t f = 0; f < mesh.face_count(); ++f)
-    for (int c = 0; c < 3; ++c) {
-      const uint64_t a = mesh.indices[3 * f + c], b = mesh.indices[3 * f + (c + 1) % 3];
-      edges.push_back(a < b ? (a << 32 | b) : (b << 32 | a));
-    }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  const size_t k = size_t(channels);
-  std::vector<double> sum(nv), count(nv);
+  smooth_over_edges(mesh_edges(mesh), iterations, channels, channel, values);
+}
+
+void smooth_over_edges(const MeshEdges& edges, int iterations, int channels, int channel, std::vector<float>* values) {
+  const size_t nv = edges.vertex_count(), k = size_t(channels);
+  // The channel in its own arrays (one read per neighbour, not a strided
+  // one); each vertex sums its neighbours in ascending order, in double, so
+  // the result is the same on any thread count.
+  std::vector<float> now(nv), next(nv);
+  for (size_t v = 0; v < nv; ++v) now[v] = (*values)[k * v + channel];
   for (int it = 0; it < iterations; ++it) {
-    std::fill(sum.begin(), sum.end(), 0.0);
-    std::fill(count.begin(), count.end(), 0.0);
-    for (uint64_t e : edges) {
-      const uint32_t a = uint32_t(e >> 32), b = uint32_t(e);
-      sum[a] += (*values)[k * b + channel];
-      sum[b] += (*values)[k * a + channel];
-      count[a] += 1;
-      count[b] += 1;
-    }
-    for (size_t v = 0; v < nv; ++v)
-      if (count[v] > 0) (*values)[k * v + channel] = float(0.5 * (*values)[k * v + channel] + 0.5 * sum[v] / count[v]);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v) {
+        const size_t n = edges.degree(uint32_t(v));
+        if (n == 0) {
+          next[v] = now[v];
+          continue;
+        }
+        double sum = 0;
+        for (const uint32_t* w = edges.begin(uint32_t(v)); w != edges.end(uint32_t(v)); ++w) sum += now[*w];
+        next[v] = float(0.5 * now[v] + 0.5 * sum / double(n));
+      }
+    });
+    now.swap(next);
   }
+  for (size_t v = 0; v < nv; ++v) (*values)[k * v + channel] = now[v];
 }
 
 }  // namespace vpr

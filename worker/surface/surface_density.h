@@ -11,6 +11,7 @@
 
 #include "core/mesh.h"
 #include "core/status.h"
+#include "surface/mesh_edges.h"
 
 namespace vpr {
 
@@ -46,5 +47,7 @@ std::vector<float> vertex_density(const std::vector<double>& curvature, const st
 // spacings, not from one element to the next: a CVT cannot place well-shaped
 // triangles across a tenfold jump in density.
 void smooth_over_edges(const Mesh& mesh, int iterations, int channels, int channel, std::vector<float>* values);
+// The same over edges already built (mesh_edges(mesh)).
+void smooth_over_edges(const MeshEdges& edges, int iterations, int channels, int channel, std::vector<float>* values);
 
 }  // namespace vpr

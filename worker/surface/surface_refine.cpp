@@ -1,11 +1,13 @@
 #include "surface/surface_refine.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <map>
+#include <cstring>
 #include <string>
-#include <unordered_map>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include "core/vec3.h"
 
@@ -14,10 +16,6 @@ namespace {
 
 Vec3d at(const std::vector<double>& p, uint32_t i) {
   return {p[3 * size_t(i)], p[3 * size_t(i) + 1], p[3 * size_t(i) + 2]};
-}
-
-uint64_t edge_key(uint32_t a, uint32_t b) {
-  return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
 }
 
 }  // namespace
@@ -31,18 +29,49 @@ StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<flo
   RefinedSurface out;
   out.channels = channels;
   size_t count = 0;  // refined vertices
-  // Weld exact duplicates (the lowest index wins, so a welded mesh keeps its order).
-  std::map<std::array<float, 3>, uint32_t> first;
-  std::vector<uint32_t> weld(input.vertex_count());
-  for (size_t v = 0; v < input.vertex_count(); ++v) {
-    const std::array<float, 3> p = {input.positions[3 * v], input.positions[3 * v + 1], input.positions[3 * v + 2]};
-    auto [it, added] = first.emplace(p, uint32_t(count));
-    if (added) {
-      out.mesh.positions.insert(out.mesh.positions.end(), p.begin(), p.end());
-      out.value.insert(out.value.end(), value.begin() + k * v, value.begin() + k * (v + 1));
-      ++count;
+  // Weld exact duplicates (the lowest index wins, so a welded mesh keeps its
+  // order): vertices sorted by position, then by index, so each run of equal
+  // positions starts with the vertex that keeps it.
+  const size_t n_in = input.vertex_count();
+  struct Keyed {
+    uint32_t key[3], v;
+    bool operator<(const Keyed& o) const {
+      return key[0] != o.key[0] ? key[0] < o.key[0]
+           : key[1] != o.key[1] ? key[1] < o.key[1]
+           : key[2] != o.key[2] ? key[2] < o.key[2]
+                                : v < o.v;
     }
-    weld[v] = it->second;
+  };
+  // A float's order as an integer's (+0 and -0 one position; a NaN only its own bits).
+  auto order_key = [](float f) -> uint32_t {
+    if (f == 0) return 0x80000000u;
+    uint32_t u;
+    std::memcpy(&u, &f, 4);
+    return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+  };
+  std::vector<Keyed> sorted(n_in);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n_in, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v)
+      sorted[v] = {{order_key(input.positions[3 * v]), order_key(input.positions[3 * v + 1]),
+                    order_key(input.positions[3 * v + 2])},
+                   uint32_t(v)};
+  });
+  tbb::parallel_sort(sorted.begin(), sorted.end());  // a total order: the same result on any thread count
+  std::vector<uint32_t> keeper(n_in);
+  for (size_t i = 0, lead = 0; i < n_in; ++i) {
+    if (i > 0 && !std::equal(sorted[i].key, sorted[i].key + 3, sorted[i - 1].key)) lead = i;
+    keeper[sorted[i].v] = sorted[lead].v;
+  }
+  std::vector<uint32_t> weld(n_in);
+  for (size_t v = 0; v < n_in; ++v) {
+    if (keeper[v] == v) {
+      out.mesh.positions.insert(out.mesh.positions.end(), input.positions.begin() + 3 * v,
+                                input.positions.begin() + 3 * (v + 1));
+      out.value.insert(out.value.end(), value.begin() + k * v, value.begin() + k * (v + 1));
+      weld[v] = uint32_t(count++);
+    } else {
+      weld[v] = weld[keeper[v]];  // keeper[v] < v: already numbered
+    }
   }
   std::vector<double> pos(out.mesh.positions.begin(), out.mesh.positions.end());  // double while splitting
   for (size_t f = 0; f < input.face_count(); ++f) {
@@ -56,78 +85,107 @@ StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<flo
   if (out.mesh.indices.empty()) return invalid_argument("refine: the mesh has no face of positive area");
 
   // Passes of midpoint splits: each face keeps its corners' order, so the
-  // refined faces keep the input's orientation.
+  // refined faces keep the input's orientation. New vertices are numbered
+  // in the order the face loop first meets their edge (face by face, corner
+  // by corner); the rest of a pass is per face or per new vertex, in
+  // parallel, so the result is the same on any thread count.
   const double max2 = max_edge * max_edge;
+  auto length2 = [&](uint32_t a, uint32_t b) {
+    const Vec3d d = at(pos, a) - at(pos, b);
+    return dot(d, d);
+  };
   for (int pass = 0; pass < 64; ++pass) {
-    std::unordered_map<uint64_t, uint32_t> mid;
-    auto length2 = [&](uint32_t a, uint32_t b) {
-      const Vec3d d = at(pos, a) - at(pos, b);
-      return dot(d, d);
-    };
-    auto midpoint = [&](uint32_t a, uint32_t b) -> uint32_t {
-      auto [it, added] = mid.emplace(edge_key(a, b), uint32_t(count));
-      if (added) {
-        for (int c = 0; c < 3; ++c) pos.push_back(0.5 * (pos[3 * a + c] + pos[3 * b + c]));
-        for (size_t c = 0; c < k; ++c) out.value.push_back(0.5f * (out.value[k * a + c] + out.value[k * b + c]));
-        ++count;
-      }
-      return it->second;
-    };
+    MeshEdges edges = mesh_edges(out.mesh.indices, count);
     const size_t faces = out.mesh.indices.size() / 3;
-    for (size_t f = 0; f < faces; ++f)
-      for (int c = 0; c < 3; ++c) {
-        const uint32_t a = out.mesh.indices[3 * f + c], b = out.mesh.indices[3 * f + (c + 1) % 3];
-        if (length2(a, b) > max2) midpoint(a, b);
+    const uint32_t* idx = out.mesh.indices.data();
+    // Per face corner: the edge to its successor, numbered by edges.entry(min, max), when it is too long.
+    std::vector<uint32_t> long_edge(3 * faces, UINT32_MAX);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, faces, 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t f = r.begin(); f != r.end(); ++f)
+        for (int c = 0; c < 3; ++c) {
+          const uint32_t a = idx[3 * f + c], b = idx[3 * f + (c + 1) % 3];
+          if (length2(a, b) > max2) long_edge[3 * f + c] = edges.entry(std::min(a, b), std::max(a, b));
+        }
+    });
+    std::vector<uint32_t> mid(edges.neighbor.size(), UINT32_MAX);
+    std::vector<uint32_t> ends;  // per new vertex, its edge's two ends
+    for (size_t h = 0; h < 3 * faces; ++h)
+      if (long_edge[h] != UINT32_MAX && mid[long_edge[h]] == UINT32_MAX) {
+        mid[long_edge[h]] = uint32_t(count + ends.size() / 2);
+        ends.insert(ends.end(), {idx[h], idx[h - h % 3 + (h % 3 + 1) % 3]});
       }
-    if (mid.empty()) break;
-    if (count > max_vertices)
+    if (ends.empty()) {
+      out.edges = std::move(edges);
+      break;
+    }
+    const size_t added = ends.size() / 2;
+    if (count + added > max_vertices)
       return resource_exhausted("refining the surface to edges of " + std::to_string(max_edge) + " would need over " +
                                 std::to_string(max_vertices) + " vertices");
-    std::vector<uint32_t> indices;
-    std::vector<uint32_t> face;
-    indices.reserve(out.mesh.indices.size() * 2);
-    for (size_t f = 0; f < faces; ++f) {
-      const uint32_t v[3] = {out.mesh.indices[3 * f], out.mesh.indices[3 * f + 1], out.mesh.indices[3 * f + 2]};
-      uint32_t m[3];
-      int split = 0;
-      for (int c = 0; c < 3; ++c) {
-        auto it = mid.find(edge_key(v[c], v[(c + 1) % 3]));
-        m[c] = it == mid.end() ? UINT32_MAX : it->second;
-        split += m[c] != UINT32_MAX;
+    pos.resize(3 * (count + added));
+    out.value.resize(k * (count + added));
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, added, 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i != r.end(); ++i) {
+        const size_t a = ends[2 * i], b = ends[2 * i + 1], n = count + i;
+        for (int c = 0; c < 3; ++c) pos[3 * n + c] = 0.5 * (pos[3 * a + c] + pos[3 * b + c]);
+        for (size_t c = 0; c < k; ++c) out.value[k * n + c] = 0.5f * (out.value[k * a + c] + out.value[k * b + c]);
       }
-      auto emit = [&](uint32_t a, uint32_t b, uint32_t c) {
-        indices.insert(indices.end(), {a, b, c});
-        face.push_back(out.face[f]);
-      };
-      if (split == 0) {
-        emit(v[0], v[1], v[2]);
-      } else if (split == 3) {  // 1:4
-        emit(v[0], m[0], m[2]);
-        emit(v[1], m[1], m[0]);
-        emit(v[2], m[2], m[1]);
-        emit(m[0], m[1], m[2]);
-      } else if (split == 1) {  // 1:2 across the split edge
-        const int c = m[0] != UINT32_MAX ? 0 : m[1] != UINT32_MAX ? 1 : 2;
-        emit(v[c], m[c], v[(c + 2) % 3]);
-        emit(m[c], v[(c + 1) % 3], v[(c + 2) % 3]);
-      } else {  // two split edges: the corner between them, then the quad by its shorter diagonal
-        // e: the unsplit edge (v[e], v[e+1]); the corner opposite it, v[e+2], is cut off.
-        const int e = m[0] == UINT32_MAX ? 0 : m[1] == UINT32_MAX ? 1 : 2;
-        const uint32_t a = v[e], b = v[(e + 1) % 3], o = v[(e + 2) % 3];
-        const uint32_t mb = m[(e + 1) % 3], ma = m[(e + 2) % 3];  // on (b, o) and (o, a)
-        emit(ma, mb, o);
-        if (length2(a, mb) < length2(b, ma)) {
-          emit(a, b, mb);
-          emit(a, mb, ma);
-        } else {
-          emit(a, b, ma);
-          emit(b, mb, ma);
+    });
+    count += added;
+    // A face with s split edges becomes s + 1 faces.
+    std::vector<uint32_t> first(faces + 1, 0);
+    for (size_t f = 0; f < faces; ++f)
+      first[f + 1] = first[f] + 1 + (long_edge[3 * f] != UINT32_MAX) + (long_edge[3 * f + 1] != UINT32_MAX) +
+                     (long_edge[3 * f + 2] != UINT32_MAX);
+    std::vector<uint32_t> indices(3 * size_t(first[faces]));
+    std::vector<uint32_t> face(first[faces]);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, faces, 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t f = r.begin(); f != r.end(); ++f) {
+        const uint32_t v[3] = {idx[3 * f], idx[3 * f + 1], idx[3 * f + 2]};
+        uint32_t m[3];
+        int split = 0;
+        for (int c = 0; c < 3; ++c) {
+          m[c] = long_edge[3 * f + c] == UINT32_MAX ? UINT32_MAX : mid[long_edge[3 * f + c]];
+          split += m[c] != UINT32_MAX;
+        }
+        size_t slot = first[f];
+        auto emit = [&](uint32_t a, uint32_t b, uint32_t c) {
+          indices[3 * slot] = a;
+          indices[3 * slot + 1] = b;
+          indices[3 * slot + 2] = c;
+          face[slot++] = out.face[f];
+        };
+        if (split == 0) {
+          emit(v[0], v[1], v[2]);
+        } else if (split == 3) {  // 1:4
+          emit(v[0], m[0], m[2]);
+          emit(v[1], m[1], m[0]);
+          emit(v[2], m[2], m[1]);
+          emit(m[0], m[1], m[2]);
+        } else if (split == 1) {  // 1:2 across the split edge
+          const int c = m[0] != UINT32_MAX ? 0 : m[1] != UINT32_MAX ? 1 : 2;
+          emit(v[c], m[c], v[(c + 2) % 3]);
+          emit(m[c], v[(c + 1) % 3], v[(c + 2) % 3]);
+        } else {  // two split edges: the corner between them, then the quad by its shorter diagonal
+          // e: the unsplit edge (v[e], v[e+1]); the corner opposite it, v[e+2], is cut off.
+          const int e = m[0] == UINT32_MAX ? 0 : m[1] == UINT32_MAX ? 1 : 2;
+          const uint32_t a = v[e], b = v[(e + 1) % 3], o = v[(e + 2) % 3];
+          const uint32_t mb = m[(e + 1) % 3], ma = m[(e + 2) % 3];  // on (b, o) and (o, a)
+          emit(ma, mb, o);
+          if (length2(a, mb) < length2(b, ma)) {
+            emit(a, b, mb);
+            emit(a, mb, ma);
+          } else {
+            emit(a, b, ma);
+            emit(b, mb, ma);
+          }
         }
       }
-    }
+    });
     out.mesh.indices = std::move(indices);
     out.face = std::move(face);
   }
+  if (out.edges.offset.empty()) out.edges = mesh_edges(out.mesh.indices, count);  // 64 passes ran out
   out.mesh.positions.assign(pos.begin(), pos.end());
   return out;
 }

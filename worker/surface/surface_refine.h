@@ -10,6 +10,7 @@
 
 #include "core/mesh.h"
 #include "core/status.h"
+#include "surface/mesh_edges.h"
 
 namespace vpr {
 
@@ -18,6 +19,7 @@ struct RefinedSurface {
   int channels = 1;
   std::vector<float> value;    // channels per refined vertex: the input's values, linearly interpolated
   std::vector<uint32_t> face;  // per refined face: the input face it lies in
+  MeshEdges edges;             // the refined mesh's edges (mesh_edges(mesh)), a by-product of the last pass
 };
 
 // value: `channels` numbers per input vertex (e.g. importance, density),

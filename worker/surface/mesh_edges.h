@@ -1,0 +1,39 @@
+// A triangle mesh's edges in compressed rows: per vertex its neighbours,
+// sorted, each with how many faces use the edge (1: a boundary edge). The
+// surface back half walks these rows in every stage (refinement, smoothing of
+// the density, the CVT's sweeps), so they are built once per mesh, in
+// parallel, with a result that does not depend on the thread count.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+#include "core/mesh.h"
+
+namespace vpr {
+
+struct MeshEdges {
+  std::vector<uint32_t> offset;    // vertex_count + 1
+  std::vector<uint32_t> neighbor;  // row v: offset[v] .. offset[v + 1], ascending
+  std::vector<uint32_t> faces;     // per entry: faces that use the edge
+  size_t vertex_count() const { return offset.empty() ? 0 : offset.size() - 1; }
+  size_t degree(uint32_t v) const { return offset[v + 1] - offset[v]; }
+  const uint32_t* begin(uint32_t v) const { return neighbor.data() + offset[v]; }
+  const uint32_t* end(uint32_t v) const { return neighbor.data() + offset[v + 1]; }
+  // Inline: the CVT's sweeps ask this for every candidate move.
+  bool adjacent(uint32_t a, uint32_t b) const { return std::binary_search(begin(a), end(a), b); }
+  // The entry of b in a's row (UINT32_MAX when not adjacent): entry(min, max)
+  // numbers each undirected edge once.
+  uint32_t entry(uint32_t a, uint32_t b) const {
+    const uint32_t* it = std::lower_bound(begin(a), end(a), b);
+    return it != end(a) && *it == b ? uint32_t(it - neighbor.data()) : UINT32_MAX;
+  }
+};
+
+// A face's corner repeated (a == b) gives no edge.
+MeshEdges mesh_edges(const Mesh& mesh);
+// The same from an index buffer (three per face) over vertex_count vertices.
+MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count);
+
+}  // namespace vpr
