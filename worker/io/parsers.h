@@ -17,6 +17,10 @@
 
 namespace vpr::io_detail {
 
+// glTF names the reader and the writer share.
+inline constexpr const char* kSaliencyAttributeName = "_SALIENCY";  // glTF's prefix for application attributes
+inline constexpr const char* kDracoExtensionName = "KHR_draco_mesh_compression";
+
 // saliency (may be nullptr): receives the per-vertex "saliency" values when
 // the file carries them (PLY vertex property, Draco attribute), else is cleared.
 StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& limits);
