@@ -223,6 +223,110 @@ void delaunay_flips(Mesh* mesh) {
   }
 }
 
+// What a vertex may do in the tangential relaxation below.
+enum class Freedom : char { kFree, kAlongLine, kHeld };
+
+// Tangential relaxation (Botsch and Kobbelt 2004, "A remeshing approach to
+// multiresolution modeling", Section 4): every free vertex moves in its
+// tangent plane, by half the way, towards the centroid of its one-ring's
+// triangle centroids; a crease vertex moves along its crease line towards
+// the midpoint of its two crease neighbours; corners and boundary vertices
+// stay. Each moved vertex goes back onto the input surface (the closest
+// point of the faces of its own and its neighbours' cells). The centroids
+// are not weighted by area: a CVT's cells have areas about 1 / density, so
+// area weights would pull vertices towards sparse regions and undo the
+// density; equal weights keep a smoothly varying spacing. All vertices move
+// at once (one order on any thread count); a move that turns one of its
+// triangles by more than a right angle is undone.
+void relax_tangentially(Mesh* mesh, const std::vector<uint32_t>& source, const std::vector<Freedom>& freedom,
+                        const std::vector<Vector3d>& line, const Mesh& surface,
+                        const std::vector<std::vector<uint32_t>>& cell_faces) {
+  const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
+  auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
+  std::vector<uint32_t> face_start(nv + 1, 0), faces_of(3 * nf);
+  for (uint32_t v : mesh->indices) ++face_start[v + 1];
+  for (size_t v = 0; v < nv; ++v) face_start[v + 1] += face_start[v];
+  {
+    std::vector<uint32_t> fill(face_start.begin(), face_start.end() - 1);
+    for (size_t f = 0; f < nf; ++f)
+      for (int c = 0; c < 3; ++c) faces_of[fill[mesh->indices[3 * f + c]]++] = uint32_t(f);
+  }
+  std::vector<Vector3d> start(nv), moved(nv);
+  for (uint32_t v = 0; v < nv; ++v) start[v] = moved[v] = p(v);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 256), [&](const tbb::blocked_range<uint32_t>& range) {
+    for (uint32_t v = range.begin(); v != range.end(); ++v) {
+      if (freedom[v] == Freedom::kHeld || face_start[v] == face_start[v + 1]) continue;
+      Vector3d normal = Vector3d::Zero(), centre = Vector3d::Zero();
+      std::vector<uint32_t> ring;
+      for (uint32_t j = face_start[v]; j < face_start[v + 1]; ++j) {
+        const uint32_t* t = &mesh->indices[3 * faces_of[j]];
+        normal += (start[t[1]] - start[t[0]]).cross(start[t[2]] - start[t[0]]);
+        centre += (start[t[0]] + start[t[1]] + start[t[2]]) / 3;
+        for (int k = 0; k < 3; ++k)
+          if (t[k] != v) ring.push_back(t[k]);
+      }
+      std::sort(ring.begin(), ring.end());
+      ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+      Vector3d step;
+      if (freedom[v] == Freedom::kFree) {
+        if (!(normal.norm() > 0)) continue;
+        normal.normalize();
+        const Vector3d d = centre / double(face_start[v + 1] - face_start[v]) - start[v];
+        step = 0.5 * (d - normal * normal.dot(d));
+      } else {
+        // The crease neighbours: ring vertices on a crease or corner, along the line.
+        const Vector3d& dir = line[source[v]];
+        std::vector<uint32_t> along;
+        for (uint32_t w : ring) {
+          if (freedom[w] == Freedom::kFree) continue;
+          const Vector3d e = start[w] - start[v];
+          if (std::abs(e.normalized().dot(dir)) > 0.9) along.push_back(w);
+        }
+        if (along.size() != 2) continue;
+        const Vector3d mid = 0.5 * (start[along[0]] + start[along[1]]);
+        step = 0.5 * dir * dir.dot(mid - start[v]);
+      }
+      const Vector3d x = start[v] + step;
+      // Back onto the input: the faces of the cells around v.
+      std::vector<uint32_t> cells = {source[v]};
+      for (uint32_t w : ring) cells.push_back(source[w]);
+      std::sort(cells.begin(), cells.end());
+      cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+      double best_d = INFINITY;
+      Vector3d best = start[v];
+      for (uint32_t cell : cells)
+        for (uint32_t f : cell_faces[cell]) {
+          const uint32_t* t = &surface.indices[3 * f];
+          const Vector3d q = closest_on_triangle(x, eig(load3d(surface.positions.data(), t[0])),
+                                                 eig(load3d(surface.positions.data(), t[1])),
+                                                 eig(load3d(surface.positions.data(), t[2])));
+          const double d = (q - x).squaredNorm();
+          if (d < best_d) best_d = d, best = q;
+        }
+      moved[v] = best;
+    }
+  });
+  auto put = [&](uint32_t v, const Vector3d& x) {
+    for (int k = 0; k < 3; ++k) mesh->positions[3 * v + k] = float(x[k]);
+  };
+  for (uint32_t v = 0; v < nv; ++v) put(v, moved[v]);
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (size_t f = 0; f < nf; ++f) {
+      const uint32_t* t = &mesh->indices[3 * f];
+      const Vector3d before = (start[t[1]] - start[t[0]]).cross(start[t[2]] - start[t[0]]);
+      const Vector3d after = (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0]));
+      if (!(before.squaredNorm() > 0) || after.dot(before) > 0) continue;
+      for (int k = 0; k < 3; ++k)
+        if (moved[t[k]] != start[t[k]]) {
+          moved[t[k]] = start[t[k]];
+          put(t[k], start[t[k]]);
+          changed = true;
+        }
+    }
+  }
+}
+
 }  // namespace
 
 Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, uint32_t count, Mesh* out,
@@ -358,6 +462,8 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
   // cell's triangles; each cell on its own, so in parallel.
   std::vector<float> points(3 * size_t(count), 0.0f);
   std::vector<char> feature(count, 0);  // the cell covers a crease or corner
+  std::vector<char> pinned_directions(count, 0);
+  std::vector<Vector3d> line(count, Vector3d::Zero());  // a crease cell's line direction
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 256), [&](const tbb::blocked_range<uint32_t>& range) {
     for (uint32_t cell = range.begin(); cell != range.end(); ++cell) {
       if (!(weight[cell] > 0)) continue;
@@ -379,6 +485,8 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
       // them; a smoothly bent cell pins a second direction too, and a scan's
       // noise has short sharp edges).
       feature[cell] = pinned >= 2 && sharp_length[cell] > 0.5 * std::sqrt(weight[cell]);
+      pinned_directions[cell] = char(pinned);
+      if (pinned == 2) line[cell] = u.col(0);  // eigenvalues ascend: the free direction first
       Vector3d best = c;
       double best_d = INFINITY;
       for (uint32_t f : cell_faces[cell]) {
@@ -433,6 +541,19 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
       for (int c = 0; c < 3; ++c) ++uses[key2(out->indices[3 * f + c], out->indices[3 * f + (c + 1) % 3])];
     for (const auto& [e, n] : uses)
       if (n != 2) output_boundary[uint32_t(e >> 32)] = output_boundary[uint32_t(e)] = 1;
+  }
+  if (options.relax_rounds > 0) {
+    std::vector<Freedom> freedom(out->vertex_count(), Freedom::kFree);
+    for (size_t v = 0; v < freedom.size(); ++v) {
+      const uint32_t cell = source[v];
+      if (boundary_cell[cell] || output_boundary[v] || (feature[cell] && pinned_directions[cell] >= 3))
+        freedom[v] = Freedom::kHeld;
+      else if (feature[cell]) freedom[v] = Freedom::kAlongLine;
+    }
+    for (int round = 0; round < options.relax_rounds; ++round) {
+      relax_tangentially(out, source, freedom, line, surface, cell_faces);
+      delaunay_flips(out);
+    }
   }
   {
     // Held: input boundary, crease and corner cells, and any vertex on a

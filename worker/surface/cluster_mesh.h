@@ -9,10 +9,13 @@
 // eigenvalues dropped (Lindstrom 2000), so it lands on a crease or corner the
 // cell covers and at the centroid on a flat one; then it is projected onto the
 // cell's own triangles, so it lies on the input surface, on its own sheet.
-// Non-manifold configurations are repaired by repair_triangle_soup. Last,
-// the vertices off creases, corners and the boundary are offset along their
-// normals to the least-squares fit of the input (offset_fit.h), so the
-// triangles are no longer chords of the surface.
+// Non-manifold configurations are repaired by repair_triangle_soup. Then
+// rounds of tangential relaxation and Delaunay flips (free vertices in their
+// tangent plane, crease vertices along their crease, corners and boundary
+// held) remove most thin triangles. Last, the vertices off creases, corners
+// and the boundary are offset along their normals to the least-squares fit
+// of the input (offset_fit.h), so the triangles are no longer chords of the
+// surface.
 #pragma once
 
 #include <cstdint>
@@ -35,6 +38,9 @@ struct ClusterMeshStats {
 };
 
 struct ClusterMeshOptions {
+  // Rounds of tangential relaxation, each followed by Delaunay flips, before
+  // the fit (0: the CVT's vertices as they are).
+  int relax_rounds = 3;
   OffsetFitOptions offset;  // the L2 fit of the vertices along their normals (on by default)
 };
 
