@@ -232,7 +232,7 @@ enum class Freedom : char { kFree, kAlongLine, kHeld };
 // triangle centroids; a crease vertex moves along its crease line towards
 // the midpoint of its two crease neighbours; corners and boundary vertices
 // stay. Each moved vertex goes back onto the input surface (the closest
-// point of the faces of its own and its neighbours' cells). The centroids
+// point of the faces of its own cell and the neighbouring cell it moves towards). The centroids
 // are not weighted by area: a CVT's cells have areas about 1 / density, so
 // area weights would pull vertices towards sparse regions and undo the
 // density; equal weights keep a smoothly varying spacing. All vertices move
@@ -287,11 +287,14 @@ void relax_tangentially(Mesh* mesh, const std::vector<uint32_t>& source, const s
         step = 0.5 * dir * dir.dot(mid - start[v]);
       }
       const Vector3d x = start[v] + step;
-      // Back onto the input: the faces of the cells around v.
+      // Back onto the input: the faces of v's cell and of the cell of the
+      // ring vertex nearest to where v goes (it moves at most half way to
+      // its ring's centre, so into one neighbouring cell at most).
+      uint32_t toward = ring.front();
+      for (uint32_t w : ring)
+        if ((start[w] - x).squaredNorm() < (start[toward] - x).squaredNorm()) toward = w;
       std::vector<uint32_t> cells = {source[v]};
-      for (uint32_t w : ring) cells.push_back(source[w]);
-      std::sort(cells.begin(), cells.end());
-      cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+      if (source[toward] != source[v]) cells.push_back(source[toward]);
       double best_d = INFINITY;
       Vector3d best = start[v];
       for (uint32_t cell : cells)

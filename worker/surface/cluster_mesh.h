@@ -40,7 +40,7 @@ struct ClusterMeshStats {
 struct ClusterMeshOptions {
   // Rounds of tangential relaxation, each followed by Delaunay flips, before
   // the fit (0: the CVT's vertices as they are).
-  int relax_rounds = 3;
+  int relax_rounds = 2;
   OffsetFitOptions offset;  // the L2 fit of the vertices along their normals (on by default)
 };
 

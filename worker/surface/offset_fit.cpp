@@ -129,11 +129,12 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
   }
   st.free_vertices = size_t(free_count);
 
-  // Samples: three per input face, at barycentric (2/3, 1/6, 1/6) and its
-  // rotations (a rule exact for quadratics, Strang and Fix), each of a third
-  // of the face's area, belonging to the cell of the corner it is nearest.
+  // Samples: one per input face, at its centroid, weighted by its area,
+  // belonging to the cell of its first labelled corner (the refined faces are
+  // a sixteenth of a cell: the one-ring searched below covers the cell's
+  // neighbourhood either way).
   auto match_all = [&](std::vector<Match>* out) {
-    out->assign(3 * sf, Match{});
+    out->assign(sf, Match{});
     tbb::parallel_for(tbb::blocked_range<size_t>(0, sf, 1024), [&](const tbb::blocked_range<size_t>& range) {
       for (size_t f = range.begin(); f != range.end(); ++f) {
         const uint32_t* t = &surface.indices[3 * f];
@@ -143,39 +144,37 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
         const double area = 0.5 * cr.norm();
         if (!(area > 0)) continue;
         const Vector3d input_normal = cr.normalized();
-        const Vector3d corner[3] = {a, b, c};
-        for (int k = 0; k < 3; ++k) {
-          const uint32_t cell = label[t[k]];
-          if (cell == UINT32_MAX || cell >= cells) continue;
-          const Vector3d p = corner[k] * (2.0 / 3) + (corner[(k + 1) % 3] + corner[(k + 2) % 3]) / 6;
-          Match best;
-          double best_d = INFINITY;
-          for (uint32_t i = vert_start[cell]; i < vert_start[cell + 1]; ++i) {
-            const uint32_t v = verts_of[i];
-            for (uint32_t j = face_start[v]; j < face_start[v + 1]; ++j) {
-              const uint32_t g = faces_of[j];
-              const uint32_t* u = &mesh->indices[3 * g];
-              const Vector3d x = pos(u[0]), y = pos(u[1]), z = pos(u[2]);
-              const Vector3d n = (y - x).cross(z - x);
-              // Only triangles parallel to the sample's face, not one that
-              // cuts across a crease (its normal between the two sides').
-              // Either winding: scans come with faces wound both ways.
-              if (!(n.squaredNorm() > 0) || std::abs(n.normalized().dot(input_normal)) < kSameSide) continue;
-              const Vector3d bc = closest_barycentric(p, x, y, z);
-              const double d = (p - (bc[0] * x + bc[1] * y + bc[2] * z)).squaredNorm();
-              if (d < best_d) {
-                best_d = d;
-                best.face = g;
-                best.bary = bc;
-                best.normal = n.normalized();
-                best.residual = best.normal.dot(p - x);
-              }
+        uint32_t cell = UINT32_MAX;
+        for (int k = 0; k < 3 && cell == UINT32_MAX; ++k) cell = label[t[k]];
+        if (cell == UINT32_MAX || cell >= cells) continue;
+        const Vector3d p = (a + b + c) / 3;
+        Match best;
+        double best_d = INFINITY;
+        for (uint32_t i = vert_start[cell]; i < vert_start[cell + 1]; ++i) {
+          const uint32_t v = verts_of[i];
+          for (uint32_t j = face_start[v]; j < face_start[v + 1]; ++j) {
+            const uint32_t g = faces_of[j];
+            const uint32_t* u = &mesh->indices[3 * g];
+            const Vector3d x = pos(u[0]), y = pos(u[1]), z = pos(u[2]);
+            const Vector3d n = (y - x).cross(z - x);
+            // Only triangles parallel to the sample's face, not one that
+            // cuts across a crease (its normal between the two sides').
+            // Either winding: scans come with faces wound both ways.
+            if (!(n.squaredNorm() > 0) || std::abs(n.normalized().dot(input_normal)) < kSameSide) continue;
+            const Vector3d bc = closest_barycentric(p, x, y, z);
+            const double d = (p - (bc[0] * x + bc[1] * y + bc[2] * z)).squaredNorm();
+            if (d < best_d) {
+              best_d = d;
+              best.face = g;
+              best.bary = bc;
+              best.normal = n.normalized();
+              best.residual = best.normal.dot(p - x);
             }
           }
-          if (best.face < 0) continue;
-          best.weight = area / 3;
-          (*out)[3 * f + k] = best;
         }
+        if (best.face < 0) continue;
+        best.weight = area;
+        (*out)[f] = best;
       }
     });
   };
@@ -189,8 +188,10 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
   for (uint32_t v = 0; v < nv; ++v) start[v] = pos(v);
   std::vector<double> offset(nv, 0.0);
   std::vector<Match> match;
+  std::vector<double> last_offset(nv, 0.0);  // the offsets the last round's samples were matched at
   for (int round = 0; round < options.rounds && free_count > 0; ++round) {
     match_all(&match);
+    last_offset = offset;
     if (round == 0) st.rms_before = weighted_rms(match);
     // Normal equations of the residuals above, in the increment e of the
     // offsets: (A^T W A + lambda D) e = A^T W r - lambda D d.
@@ -268,9 +269,18 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
     }
     offset = next;
   }
-  if (free_count > 0) {
-    match_all(&match);
-    st.rms_after = weighted_rms(match);
+  // The residuals of the last round's samples under the offsets kept (the
+  // linear model above: no second search for the nearest triangles).
+  if (!match.empty()) {
+    double sum = 0, w = 0;
+    for (const Match& m : match) {
+      if (m.face < 0) continue;
+      const uint32_t* u = &mesh->indices[3 * size_t(m.face)];
+      double r = m.residual;
+      for (int k = 0; k < 3; ++k) r -= m.bary[k] * normal[u[k]].dot(m.normal) * (offset[u[k]] - last_offset[u[k]]);
+      sum += m.weight * r * r, w += m.weight;
+    }
+    st.rms_after = w > 0 ? std::sqrt(sum / w) : 0.0;
   }
   if (stats) *stats = st;
   return Status::Ok();

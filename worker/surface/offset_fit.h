@@ -12,7 +12,7 @@
 // distance falls to about a half of the interpolating mesh's.
 //
 // The unknowns are one offset d_k per free vertex along its unit normal N_k.
-// A sample p of the input with weight w (its area) is matched to the output
+// A sample p of the input (a face centroid, weight w its area) is matched to the output
 // triangle t nearest to it among the triangles around its cell's vertices,
 // at barycentric coordinates b; moving the vertices moves the triangle's
 // point along t's normal n_t by sum_k b_k d_k (N_k . n_t), so the residual is
@@ -43,9 +43,10 @@ struct OffsetFitOptions {
   // lambda: Tikhonov weight that keeps a vertex with few samples (or samples
   // all on one side) near the surface; small next to the data term.
   double regularization = 1e-3;
-  // Rounds of (match samples to triangles, solve): the second picks up
-  // samples whose nearest triangle changed.
-  int rounds = 2;
+  // Rounds of (match samples to triangles, solve); a second one picks up
+  // samples whose nearest triangle changed, for twice the time and little
+  // gain once the offsets are bounded.
+  int rounds = 1;
 };
 
 struct OffsetFitStats {
@@ -53,8 +54,8 @@ struct OffsetFitStats {
   size_t held_vertices = 0;    // boundary, crease and corner vertices (d = 0)
   size_t clamped = 0;          // offsets cut to the bound (last round)
   size_t dropped = 0;          // offsets dropped because they turned a triangle
-  double rms_before = 0;       // weighted RMS distance of the samples to the mesh, model units
-  double rms_after = 0;
+  double rms_before = 0;       // weighted RMS distance of the samples to the mesh, position units
+  double rms_after = 0;        // the same after the fit, by the linear model of the last round
 };
 
 // surface: the (refined) input; label: per surface vertex, its cell (or
