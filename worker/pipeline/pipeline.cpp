@@ -482,7 +482,8 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
           [&]() -> Status {
             std::vector<uint32_t> cell;
             const uint32_t cells = result.cvt.clusters;
-            VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, label, cells, &result.mesh, &cell, &result.cluster_mesh));
+            VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, label, cells, &result.mesh, &cell, &result.cluster_mesh,
+                                              options.cluster_mesh));
             // Each output vertex: its cell's mean importance (area-weighted).
             std::vector<double> sum(cells, 0.0), weight(cells, 0.0);
             const std::vector<double> area = vertex_areas(refined.mesh);
@@ -497,6 +498,16 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
             result.meshing = result.cluster_mesh.repair;
             note = "dual of the CVT cells; " + std::to_string(result.cluster_mesh.holes_closed) + " dual holes closed, " +
                    std::to_string(result.cluster_mesh.boundary_loops) + " boundary loops kept";
+            const OffsetFitStats& fit = result.cluster_mesh.offset;
+            if (fit.free_vertices > 0) {
+              char text[200];
+              std::snprintf(text, sizeof text,
+                            "; L2 offsets of %zu vertices (%zu held, %zu at the bound, %zu dropped): RMS distance "
+                            "%.4f%% -> %.4f%% of the diagonal",
+                            fit.free_vertices, fit.held_vertices, fit.clamped, fit.dropped, 100 * fit.rms_before,
+                            100 * fit.rms_after);
+              note += text;
+            }
             return Status::Ok();
           },
           &note));

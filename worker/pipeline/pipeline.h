@@ -72,6 +72,7 @@ struct PipelineOptions {
   // Hausdorff; kPerception becomes the default once it wins (docs/perception.md).
   DensityMode density = DensityMode::kCurvature;
   CvtOptions cvt;  // its seed is sampling.seed
+  ClusterMeshOptions cluster_mesh;  // the dual's relaxation and L2 fit (cluster_mesh.h)
   // Surface elements per output vertex at the mean spacing (the refinement's
   // edge length is the target spacing over sqrt of this).
   double cvt_elements_per_vertex = 16;

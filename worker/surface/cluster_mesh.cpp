@@ -58,6 +58,9 @@ struct Quadric {
   }
 };
 
+// cos(30 degrees): faces further apart than this meet at a crease.
+constexpr double kCreaseCos = 0.8660254037844386;
+
 uint64_t key2(uint32_t a, uint32_t b) {
   return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
 }
@@ -173,7 +176,7 @@ void delaunay_flips(Mesh* mesh) {
     return std::acos(std::clamp(u.dot(w), -1.0, 1.0));
   };
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
-  const double crease = std::cos(30.0 * M_PI / 180.0);
+  const double crease = kCreaseCos;
   for (int pass = 0; pass < 20; ++pass) {
     std::unordered_map<uint64_t, std::array<int64_t, 2>> faces_of;
     for (size_t f = 0; f < mesh->face_count(); ++f)
@@ -220,10 +223,118 @@ void delaunay_flips(Mesh* mesh) {
   }
 }
 
+// What a vertex may do in the tangential relaxation below.
+enum class Freedom : char { kFree, kAlongLine, kHeld };
+
+// Tangential relaxation (Botsch and Kobbelt 2004, "A remeshing approach to
+// multiresolution modeling", Section 4): every free vertex moves in its
+// tangent plane, by half the way, towards the centroid of its one-ring's
+// triangle centroids; a crease vertex moves along its crease line towards
+// the midpoint of its two crease neighbours; corners and boundary vertices
+// stay. Each moved vertex goes back onto the input surface (the closest
+// point of the faces of its own cell and the neighbouring cell it moves towards). The centroids
+// are not weighted by area: a CVT's cells have areas about 1 / density, so
+// area weights would pull vertices towards sparse regions and undo the
+// density; equal weights keep a smoothly varying spacing. All vertices move
+// at once (one order on any thread count); a move that turns one of its
+// triangles by more than a right angle is undone.
+void relax_tangentially(Mesh* mesh, const std::vector<uint32_t>& source, const std::vector<Freedom>& freedom,
+                        const std::vector<Vector3d>& line, const Mesh& surface,
+                        const std::vector<std::vector<uint32_t>>& cell_faces) {
+  const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
+  auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
+  std::vector<uint32_t> face_start(nv + 1, 0), faces_of(3 * nf);
+  for (uint32_t v : mesh->indices) ++face_start[v + 1];
+  for (size_t v = 0; v < nv; ++v) face_start[v + 1] += face_start[v];
+  {
+    std::vector<uint32_t> fill(face_start.begin(), face_start.end() - 1);
+    for (size_t f = 0; f < nf; ++f)
+      for (int c = 0; c < 3; ++c) faces_of[fill[mesh->indices[3 * f + c]]++] = uint32_t(f);
+  }
+  std::vector<Vector3d> start(nv), moved(nv);
+  for (uint32_t v = 0; v < nv; ++v) start[v] = moved[v] = p(v);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 256), [&](const tbb::blocked_range<uint32_t>& range) {
+    for (uint32_t v = range.begin(); v != range.end(); ++v) {
+      if (freedom[v] == Freedom::kHeld || face_start[v] == face_start[v + 1]) continue;
+      Vector3d normal = Vector3d::Zero(), centre = Vector3d::Zero();
+      std::vector<uint32_t> ring;
+      for (uint32_t j = face_start[v]; j < face_start[v + 1]; ++j) {
+        const uint32_t* t = &mesh->indices[3 * faces_of[j]];
+        normal += (start[t[1]] - start[t[0]]).cross(start[t[2]] - start[t[0]]);
+        centre += (start[t[0]] + start[t[1]] + start[t[2]]) / 3;
+        for (int k = 0; k < 3; ++k)
+          if (t[k] != v) ring.push_back(t[k]);
+      }
+      std::sort(ring.begin(), ring.end());
+      ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+      Vector3d step;
+      if (freedom[v] == Freedom::kFree) {
+        if (!(normal.norm() > 0)) continue;
+        normal.normalize();
+        const Vector3d d = centre / double(face_start[v + 1] - face_start[v]) - start[v];
+        step = 0.5 * (d - normal * normal.dot(d));
+      } else {
+        // The crease neighbours: ring vertices on a crease or corner, along the line.
+        const Vector3d& dir = line[source[v]];
+        std::vector<uint32_t> along;
+        for (uint32_t w : ring) {
+          if (freedom[w] == Freedom::kFree) continue;
+          const Vector3d e = start[w] - start[v];
+          if (std::abs(e.normalized().dot(dir)) > 0.9) along.push_back(w);
+        }
+        if (along.size() != 2) continue;
+        const Vector3d mid = 0.5 * (start[along[0]] + start[along[1]]);
+        step = 0.5 * dir * dir.dot(mid - start[v]);
+      }
+      const Vector3d x = start[v] + step;
+      // Back onto the input: the faces of v's cell and of the cell of the
+      // ring vertex nearest to where v goes (it moves at most half way to
+      // its ring's centre, so into one neighbouring cell at most).
+      uint32_t toward = ring.front();
+      for (uint32_t w : ring)
+        if ((start[w] - x).squaredNorm() < (start[toward] - x).squaredNorm()) toward = w;
+      std::vector<uint32_t> cells = {source[v]};
+      if (source[toward] != source[v]) cells.push_back(source[toward]);
+      double best_d = INFINITY;
+      Vector3d best = start[v];
+      for (uint32_t cell : cells)
+        for (uint32_t f : cell_faces[cell]) {
+          const uint32_t* t = &surface.indices[3 * f];
+          const Vector3d q = closest_on_triangle(x, eig(load3d(surface.positions.data(), t[0])),
+                                                 eig(load3d(surface.positions.data(), t[1])),
+                                                 eig(load3d(surface.positions.data(), t[2])));
+          const double d = (q - x).squaredNorm();
+          if (d < best_d) best_d = d, best = q;
+        }
+      moved[v] = best;
+    }
+  });
+  auto put = [&](uint32_t v, const Vector3d& x) {
+    for (int k = 0; k < 3; ++k) mesh->positions[3 * v + k] = float(x[k]);
+  };
+  for (uint32_t v = 0; v < nv; ++v) put(v, moved[v]);
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (size_t f = 0; f < nf; ++f) {
+      const uint32_t* t = &mesh->indices[3 * f];
+      const Vector3d before = (start[t[1]] - start[t[0]]).cross(start[t[2]] - start[t[0]]);
+      const Vector3d after = (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0]));
+      if (!(before.squaredNorm() > 0) || after.dot(before) > 0) continue;
+      for (int k = 0; k < 3; ++k)
+        if (moved[t[k]] != start[t[k]]) {
+          moved[t[k]] = start[t[k]];
+          put(t[k], start[t[k]]);
+          changed = true;
+        }
+    }
+  }
+}
+
 }  // namespace
 
 Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, uint32_t count, Mesh* out,
-                     std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats) {
+                     std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats,
+                     const ClusterMeshOptions& options) {
   const size_t nv = surface.vertex_count(), nf = surface.face_count();
   if (label.size() != nv) return invalid_argument("cluster mesh: one label per vertex expected");
   ClusterMeshStats st;
@@ -232,6 +343,12 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
   // Boundary edges of the refined surface (one face), and the cells on them.
   // on_boundary[3 f + c]: face f's edge from corner c is a boundary edge.
   std::vector<char> on_boundary(3 * nf, 0);
+  std::vector<double> sharp_length(count, 0.0);  // per cell, the length of its input's sharp edges
+  auto face_normal = [&](size_t f) {
+    const uint32_t* t = &surface.indices[3 * f];
+    const Vector3d a = eig(load3d(surface.positions.data(), t[0]));
+    return (eig(load3d(surface.positions.data(), t[1])) - a).cross(eig(load3d(surface.positions.data(), t[2])) - a).normalized();
+  };
   {
     std::vector<std::pair<uint64_t, uint32_t>> edges(3 * nf);
     for (size_t f = 0; f < nf; ++f)
@@ -242,6 +359,17 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
       size_t j = i;
       while (j < edges.size() && edges[j].first == edges[i].first) ++j;
       if (j - i == 1) on_boundary[edges[i].second] = 1;
+      // A sharp edge (faces more than 30 degrees apart, the flips' crease):
+      // its length counts towards the cells of both its ends.
+      if (j - i == 2) {
+        const uint32_t u = uint32_t(edges[i].first >> 32), w = uint32_t(edges[i].first);
+        const Vector3d n0 = face_normal(edges[i].second / 3), n1 = face_normal(edges[i + 1].second / 3);
+        if (n0.dot(n1) < kCreaseCos) {
+          const double len = (eig(load3d(surface.positions.data(), u)) - eig(load3d(surface.positions.data(), w))).norm();
+          if (label[u] != UINT32_MAX) sharp_length[label[u]] += len;
+          if (label[w] != UINT32_MAX && label[w] != label[u]) sharp_length[label[w]] += len;
+        }
+      }
       i = j;
     }
   }
@@ -336,6 +464,9 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
   // Vertex positions: quadric minimum about the centroid, then onto the
   // cell's triangles; each cell on its own, so in parallel.
   std::vector<float> points(3 * size_t(count), 0.0f);
+  std::vector<char> feature(count, 0);  // the cell covers a crease or corner
+  std::vector<char> pinned_directions(count, 0);
+  std::vector<Vector3d> line(count, Vector3d::Zero());  // a crease cell's line direction
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 256), [&](const tbb::blocked_range<uint32_t>& range) {
     for (uint32_t cell = range.begin(); cell != range.end(); ++cell) {
       if (!(weight[cell] > 0)) continue;
@@ -349,8 +480,16 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
       // Directions the faces pin down: the dominant normal always; a second and
       // a third only where the cell covers a crease or corner (an eigenvalue
       // over 5% of the largest: a cell bent by 20 degrees gives about 1%).
+      int pinned = 0;
       for (int k = 0; k < 3; ++k)
-        if (std::abs(lambda[k]) > 0.05 * top) x += u.col(k) * (u.col(k).dot(r) / lambda[k]);
+        if (std::abs(lambda[k]) > 0.05 * top) x += u.col(k) * (u.col(k).dot(r) / lambda[k]), ++pinned;
+      // A crease or corner: pinned in two or three directions by faces that
+      // meet at sharp edges crossing the cell (at least half its width of
+      // them; a smoothly bent cell pins a second direction too, and a scan's
+      // noise has short sharp edges).
+      feature[cell] = pinned >= 2 && sharp_length[cell] > 0.5 * std::sqrt(weight[cell]);
+      pinned_directions[cell] = char(pinned);
+      if (pinned == 2) line[cell] = u.col(0);  // eigenvalues ascend: the free direction first
       Vector3d best = c;
       double best_d = INFINITY;
       for (uint32_t f : cell_faces[cell]) {
@@ -398,6 +537,42 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
   }
   drop_slivers(out, &source);
   delaunay_flips(out);
+  std::vector<char> output_boundary(out->vertex_count(), 0);
+  {
+    std::unordered_map<uint64_t, int> uses;
+    for (size_t f = 0; f < out->face_count(); ++f)
+      for (int c = 0; c < 3; ++c) ++uses[key2(out->indices[3 * f + c], out->indices[3 * f + (c + 1) % 3])];
+    for (const auto& [e, n] : uses)
+      if (n != 2) output_boundary[uint32_t(e >> 32)] = output_boundary[uint32_t(e)] = 1;
+  }
+  if (options.relax_rounds > 0) {
+    std::vector<Freedom> freedom(out->vertex_count(), Freedom::kFree);
+    for (size_t v = 0; v < freedom.size(); ++v) {
+      const uint32_t cell = source[v];
+      if (boundary_cell[cell] || output_boundary[v] || (feature[cell] && pinned_directions[cell] >= 3))
+        freedom[v] = Freedom::kHeld;
+      else if (feature[cell]) freedom[v] = Freedom::kAlongLine;
+    }
+    for (int round = 0; round < options.relax_rounds; ++round) {
+      relax_tangentially(out, source, freedom, line, surface, cell_faces);
+      delaunay_flips(out);
+    }
+  }
+  {
+    // Held: input boundary, crease and corner cells, and any vertex on a
+    // boundary of the output (its one-sided fit would pull the rim inwards).
+    std::vector<char> pinned(out->vertex_count(), 0), held(out->vertex_count(), 0);
+    for (size_t v = 0; v < held.size(); ++v)
+      pinned[v] = boundary_cell[source[v]] || feature[source[v]] || output_boundary[v];
+    // Their neighbours too: a triangle from a vertex on one side of a crease
+    // over a crease vertex to the other side cuts the crease, and the
+    // samples it misses would pull the vertex off its (often flat) face.
+    for (size_t f = 0; f < out->face_count(); ++f) {
+      const uint32_t* t = &out->indices[3 * f];
+      if (pinned[t[0]] || pinned[t[1]] || pinned[t[2]]) held[t[0]] = held[t[1]] = held[t[2]] = 1;
+    }
+    VPR_RETURN_IF_ERROR(fit_offsets(surface, label, source, held, options.offset, out, &st.offset));
+  }
   st.cells_unused = count - out->vertex_count();
   if (cell_of_vertex) *cell_of_vertex = std::move(source);
   if (stats) *stats = st;

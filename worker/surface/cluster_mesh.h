@@ -9,7 +9,13 @@
 // eigenvalues dropped (Lindstrom 2000), so it lands on a crease or corner the
 // cell covers and at the centroid on a flat one; then it is projected onto the
 // cell's own triangles, so it lies on the input surface, on its own sheet.
-// Non-manifold configurations are repaired by repair_triangle_soup.
+// Non-manifold configurations are repaired by repair_triangle_soup. Then
+// rounds of tangential relaxation and Delaunay flips (free vertices in their
+// tangent plane, crease vertices along their crease, corners and boundary
+// held) remove most thin triangles. Last, the vertices off creases, corners
+// and the boundary are offset along their normals to the least-squares fit
+// of the input (offset_fit.h), so the triangles are no longer chords of the
+// surface.
 #pragma once
 
 #include <cstdint>
@@ -17,6 +23,7 @@
 
 #include "core/mesh.h"
 #include "surface/meshing.h"
+#include "surface/offset_fit.h"
 #include "core/status.h"
 
 namespace vpr {
@@ -27,11 +34,20 @@ struct ClusterMeshStats {
   size_t holes_closed = 0;     // dual holes closed (not input boundary)
   size_t boundary_loops = 0;   // loops kept open (the input's boundary)
   MeshingStats repair;         // repair_triangle_soup's account
+  OffsetFitStats offset;       // fit_offsets' account
+};
+
+struct ClusterMeshOptions {
+  // Rounds of tangential relaxation, each followed by Delaunay flips, before
+  // the fit (0: the CVT's vertices as they are).
+  int relax_rounds = 2;
+  OffsetFitOptions offset;  // the L2 fit of the vertices along their normals (on by default)
 };
 
 // surface: the refined input; label: its vertices' cells, count cells.
 // cell_of_vertex: per output vertex, its cell.
 Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, uint32_t count, Mesh* out,
-                     std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats);
+                     std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats,
+                     const ClusterMeshOptions& options = {});
 
 }  // namespace vpr
