@@ -168,6 +168,7 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
   result.saliency_points = o.summary.saliency_points();
   result.ignored_vertices = o.summary.ignored_vertices();
   result.dropped_parts = o.summary.dropped_parts();
+  result.cvt.parts_below_minimum = o.summary.parts_below_minimum();
   RunSummary summary;
   summary.input_vertices = o.summary.input_vertices();
   summary.input_faces = o.summary.input_faces();

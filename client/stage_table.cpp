@@ -52,6 +52,9 @@ std::string format_stage_table(const PipelineResult& result, const RunSummary& s
     out += std::to_string(result.ignored_vertices) + " input vertices no face uses were ignored\n";
   if (result.dropped_parts > 0)
     out += std::to_string(result.dropped_parts) + " parts smaller than --drop-parts-smaller-than were left out\n";
+  if (result.cvt.parts_below_minimum > 0)
+    out += std::to_string(result.cvt.parts_below_minimum) +
+           " parts got fewer vertices than a part needs to stay closed: the target is too small for every part\n";
   return out;
 }
 

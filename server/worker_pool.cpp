@@ -236,6 +236,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
   summary.set_saliency_points(result.saliency_points);
   summary.set_ignored_vertices(uint32_t(result.ignored_vertices));
   summary.set_dropped_parts(uint32_t(result.dropped_parts));
+  summary.set_parts_below_minimum(uint32_t(result.cvt.parts_below_minimum));
   summary.set_queue_ms(job.queue_ms);
   summary.set_run_ms(ms_since(run_start));
   summary.set_total_ms(job.queue_ms + summary.run_ms());

@@ -281,6 +281,32 @@ TEST(Pipeline, ManySpheresOfManySizesKeepEveryPartClosedAndInPlace) {
   for (int i = 0; i < kParts; ++i) EXPECT_GE(per_sphere[i], 12) << "sphere " << i << " (radius " << spheres[i][3] << ")";
 }
 
+// A target too small for every part's minimum (4 vertices, a tetrahedron)
+// is said, in the result and in the sampling stage's note, not hidden: 40
+// parts need 160 vertices, the job asks for 100.
+TEST(Pipeline, SaysWhenTheTargetIsTooSmallForEveryPart) {
+  const Mesh unit = testing::icosphere(1);
+  Mesh kit;
+  for (int i = 0; i < 40; ++i) {
+    const uint32_t base = uint32_t(kit.vertex_count());
+    for (size_t v = 0; v < unit.vertex_count(); ++v)
+      for (int a = 0; a < 3; ++a) kit.positions.push_back(unit.positions[3 * v + a] + (a == 0 ? 3.0f * float(i) : 0.0f));
+    for (uint32_t idx : unit.indices) kit.indices.push_back(base + idx);
+  }
+  auto result = run_pipeline(kit, default_options(kMinTargetVertices));
+  ASSERT_TRUE(result.ok()) << result.status().to_string();
+  EXPECT_EQ(result->cvt.parts, 40u);
+  EXPECT_GT(result->cvt.parts_below_minimum, 0u);
+  EXPECT_LE(result->cvt.parts_below_minimum, 40u);
+  bool noted = false;
+  for (const StageTiming& t : result->stages) noted |= t.note.find("target too small") != std::string::npos;
+  EXPECT_TRUE(noted) << "no stage note says the target is too small";
+
+  auto roomy = run_pipeline(kit, default_options(400));
+  ASSERT_TRUE(roomy.ok()) << roomy.status().to_string();
+  EXPECT_EQ(roomy->cvt.parts_below_minimum, 0u);
+}
+
 // --drop-parts-smaller-than leaves out only what the user names; by default
 // a speck 1% of the model's size stays.
 TEST(Pipeline, DropsSmallPartsOnlyWhenAsked) {
