@@ -1,8 +1,5 @@
 #include "pipeline.h"
 
-#include "core/mesh_parts.h"
-#include "surface/surface_refine.h"
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
@@ -11,11 +8,16 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <utility>
 
+#include "core/mesh_parts.h"
 #include "debug_output.h"
+#include "eval/visual_similarity.h"
 #include "job_device.h"
+#include "surface/surface_refine.h"
+#include "visual_target.h"
 #ifdef VPR_HAVE_CUDA
 #include "saliency/gpu_saliency.h"
 #endif
@@ -43,7 +45,9 @@ double ms_since(Clock::time_point start) {
 // Runs one stage, records its wall time, and checks for cancellation first.
 class StageRunner {
  public:
-  StageRunner(const PipelineOptions& options, PipelineResult* result) : options_(options), result_(result) {}
+  // level: stamped on every timing (kFrontHalf or the level's index).
+  StageRunner(const PipelineOptions& options, PipelineResult* result, int level)
+      : options_(options), result_(result), level_(level) {}
 
   // note (may be null): read after fn, for the stage's timing.
   template <class Fn>
@@ -99,13 +103,14 @@ class StageRunner {
     record_ms(name, ms_since(start), device, note);
   }
   void record_ms(const char* name, double ms, const std::string& device, const std::string& note) {
-    result_->stages.push_back({name, ms, device, note});
+    result_->stages.push_back({name, ms, device, note, level_});
     if (options_.on_stage) options_.on_stage(result_->stages.back());
   }
 
  private:
   const PipelineOptions& options_;
   PipelineResult* result_;
+  int level_;
 };
 
 // Spacing of a regular triangle mesh with `count` vertices covering `area`:
@@ -121,8 +126,8 @@ double target_spacing(double area, uint32_t count) {
 // input's positions are already relative to its origin (mesh.h), so a model
 // far from zero loses nothing either.
 struct Normalization {
-  double center[3] = {0, 0, 0};  // relative to origin
-  double scale = 1;              // model units per normalized unit
+  double center[3] = {0, 0, 0};           // relative to origin
+  double scale = 1;                       // model units per normalized unit
   std::array<double, 3> origin{0, 0, 0};  // the input's frame (mesh.h)
   double frame_scale = 1;
 };
@@ -238,15 +243,36 @@ Status validate_options(const PipelineOptions& o) {
   return Status::Ok();
 }
 
-StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& options) {
-  VPR_RETURN_IF_ERROR(validate_options(options));
-  VPR_RETURN_IF_ERROR(validate_mesh(given));
+namespace {
+
+// What the front half leaves for the back half of every level: the input as
+// the stages see it, and the field on it.
+struct FrontHalf {
+  Normalization norm;
+  Mesh input;                  // compacted (no stray vertices, no dropped parts) and normalized
+  std::vector<uint32_t> used;  // input vertex of each compacted one; empty when none was dropped
+  size_t given_vertices = 0;
+  std::unique_ptr<JobDevice> device;
+  Renderer* renderer = nullptr;  // the shared one or own_renderer
+  std::unique_ptr<Renderer> own_renderer;
+  std::vector<float> saliency_points;  // normalized, x y z each
+  std::vector<double> curvature;       // per vertex, for the density (not the paper's)
+  std::vector<double> areas;
+  double area = 0, mean_edge = 0;
+  Clock::time_point start;
+  // Front-half stage timings and everything every level reports alike
+  // (renderer, device, counts, the input field except the paper's).
+  PipelineResult shared;
+};
+
+// Stray vertices and parts the user asked to drop leave the input; the rest
+// is normalized. Sets front->input, used, norm and the counts.
+Status prepare_input(const Mesh& given, const PipelineOptions& options, FrontHalf* front) {
   // Vertices no face uses (exporters leave them behind) take no part: not in
   // the framing, the orientation, the field or the sampling.
   // Parts the user asked to drop lose their faces first, so their vertices
   // are ignored like stray ones.
   Mesh compacted;
-  std::vector<uint32_t> used;
   size_t ignored = 0, dropped_parts = 0;
   if (options.drop_parts_smaller_than > 0) {
     compacted = given;
@@ -256,23 +282,29 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
   const Mesh& source = dropped_parts > 0 ? compacted : given;
   if (unreferenced_vertex_count(source) > 0) {
     if (dropped_parts == 0) compacted = given;
-    ignored = remove_unreferenced_vertices(&compacted, &used);
+    ignored = remove_unreferenced_vertices(&compacted, &front->used);
   }
-  Normalization norm;
-  VPR_ASSIGN_OR_RETURN(const Mesh input, normalized_copy(ignored > 0 || dropped_parts > 0 ? compacted : given, &norm));
-  compacted = Mesh();
+  VPR_ASSIGN_OR_RETURN(front->input,
+                       normalized_copy(ignored > 0 || dropped_parts > 0 ? compacted : given, &front->norm));
+  front->given_vertices = given.vertex_count();
+  front->shared.ignored_vertices = ignored;
+  front->shared.dropped_parts = dropped_parts;
+  return Status::Ok();
+}
 
-  const auto job_start = Clock::now();
-  VPR_ASSIGN_OR_RETURN(const std::unique_ptr<JobDevice> device,
-                       JobDevice::select(options.device, options.cuda_device, options.device_budget));
+// Stages 1-4: views, snapshots, image saliency, unprojection, and (except
+// for the paper's density, whose field depends on the target) the field.
+Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
+  const Mesh& input = front->input;
+  PipelineResult& result = front->shared;
   const ExecContext ctx;  // stages without a GPU twin
   const std::string cpu = "cpu";
-  PipelineResult result;
-  result.ignored_vertices = ignored;
-  result.dropped_parts = dropped_parts;
-  result.device = device->description();
-  result.cpu_reason = device->cpu_reason();
-  StageRunner stage(options, &result);
+  front->start = Clock::now();
+  VPR_ASSIGN_OR_RETURN(front->device, JobDevice::select(options.device, options.cuda_device, options.device_budget));
+  const JobDevice& device = *front->device;
+  result.device = device.description();
+  result.cpu_reason = device.cpu_reason();
+  StageRunner stage(options, &result, kFrontHalf);
 
   // Stage 1: cameras and snapshots.
   std::vector<View> views;
@@ -281,22 +313,20 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
     return Status::Ok();
   }));
 
-  std::unique_ptr<Renderer> own_renderer;
-  Renderer* renderer = options.shared_renderer;
+  front->renderer = options.shared_renderer;
   std::vector<Snapshot> snapshots;
   {
     stage.begin("render");
     const auto start = Clock::now();
-    if (!renderer) {
+    if (!front->renderer) {
       auto created = create_renderer(options.renderer);
       if (!created.ok()) return Status(created.status().code(), "render: " + created.status().message());
-      own_renderer = std::move(created).value();
-      renderer = own_renderer.get();
+      front->own_renderer = std::move(created).value();
+      front->renderer = front->own_renderer.get();
     }
-    result.renderer = renderer->description();
-    Status status = renderer->render(input, views, &snapshots);
-    result.stages.push_back({"render", ms_since(start), result.renderer, ""});
-    if (options.on_stage) options.on_stage(result.stages.back());
+    result.renderer = front->renderer->description();
+    Status status = front->renderer->render(input, views, &snapshots);
+    stage.record_ms("render", ms_since(start), result.renderer, "");
     if (!status.ok()) return Status(status.code(), "render: " + status.message());
   }
 
@@ -306,19 +336,19 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
   // debug output wants them); on the CPU, or when the fused pass fails on the
   // GPU, the two stages run one after the other on the CPU.
   std::vector<FeatureImages> features(views.size());
-  std::vector<float> saliency_points;
+  std::vector<float>& saliency_points = front->saliency_points;
   std::vector<std::vector<float>> view_points(views.size());
   bool fused = false;
   std::string fused_failure;
 #ifdef VPR_HAVE_CUDA
-  if (device->on_gpu()) {
+  if (device.on_gpu()) {
     VPR_RETURN_IF_ERROR(stage.check_cancelled("image_saliency"));
     const bool want_images = !options.debug_dir.empty();
     const auto start = Clock::now();
     Status status = Status::Ok();
     for (size_t v = 0; v < views.size() && status.ok(); ++v)
       status = cuda::view_saliency_points(snapshots[v], views[v], options.image, &view_points[v],
-                                          want_images ? &features[v] : nullptr, device->context());
+                                          want_images ? &features[v] : nullptr, device.context());
     if (status.ok()) {
       stage.record("image_saliency", start, "cuda", "");
       stage.record_ms("unproject", 0, "cuda", "fused into image_saliency on the GPU");
@@ -331,7 +361,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
 #endif
   if (!fused) {
     const std::unique_ptr<JobDevice> cpu_only = std::move(JobDevice::select(DevicePolicy::kCpu, 0, nullptr)).value();
-    const JobDevice& twin_device = fused_failure.empty() ? *device : *cpu_only;
+    const JobDevice& twin_device = fused_failure.empty() ? device : *cpu_only;
     VPR_RETURN_IF_ERROR(stage.run_twin(
         "image_saliency", twin_device,
         [&](const ExecContext& c) -> Status {
@@ -356,7 +386,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
   result.saliency_points = saliency_points.size() / 3;
   if (options.keep_saliency_points) {
     result.saliency_point_positions = saliency_points;
-    to_model_units(norm, &result.saliency_point_positions);
+    to_model_units(front->norm, &result.saliency_point_positions);
   }
 
   if (!options.debug_dir.empty()) {
@@ -366,7 +396,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
       if (ec) return invalid_argument("cannot create debug directory " + options.debug_dir + ": " + ec.message());
       for (size_t v = 0; v < views.size(); ++v) {
         std::vector<float> model_points = view_points[v];  // in the input's units, to overlay on it
-        to_model_units(norm, &model_points);
+        to_model_units(front->norm, &model_points);
         VPR_RETURN_IF_ERROR(write_view_debug(options.debug_dir, views[v], snapshots[v], features[v], model_points));
       }
       return Status::Ok();
@@ -375,7 +405,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
   // The attention field's visibility cue, while the depth buffers are here.
   std::vector<float> visibility;
   if (options.density != DensityMode::kPaper) {
-    VPR_RETURN_IF_ERROR(stage.run_twin("visibility", *device, [&](const ExecContext& c) -> Status {
+    VPR_RETURN_IF_ERROR(stage.run_twin("visibility", device, [&](const ExecContext& c) -> Status {
       return VPR_TWIN(c, view_visibility)(input.positions.data(), input.vertex_count(), views, snapshots,
                                           options.visibility, &visibility, c);
     }));
@@ -384,32 +414,44 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
   features.clear();
   view_points.clear();
 
-  // Stage 4: saliency field on the input vertices.
-  const std::vector<double> areas = face_areas(input);
-  double area = 0;
-  for (double a : areas) area += a;
-  const double mean_edge = mean_edge_length(input);
-  const double spacing_out = target_spacing(area, options.target_vertices);
-  // The paper's field (Algorithm 1) for its own back half; the attention
-  // field (attention_field.h) for the surface CVT, whose density also reuses
-  // the curvature computed here.
-  std::vector<double> curvature;
+  front->areas = face_areas(input);
+  for (double a : front->areas) front->area += a;
+  front->mean_edge = mean_edge_length(input);
+  if (options.density == DensityMode::kPaper) return Status::Ok();  // its field is the back half's
+
+  // Stage 4: the attention field (attention_field.h) on the input vertices;
+  // the surface CVT's density also reuses the curvature computed here.
+  return stage.run_twin("saliency_field", device, [&](const ExecContext& c) -> Status {
+    std::vector<double>& curvature = front->curvature;
+    if (curvature.empty()) curvature = mean_curvature(input);  // a CPU rerun after a GPU failure keeps it
+    const std::vector<float> h(curvature.begin(), curvature.end());
+    // The image cue: the front half's saliency points (stage 3), in the
+    // same normalized space as the input's vertices.
+    const FeaturePoints points{saliency_points.data(), saliency_points.size() / 3};
+    return VPR_TWIN(c, attention_field)(input.positions.data(), h.data(),
+                                        visibility.empty() ? nullptr : visibility.data(), points, input.vertex_count(),
+                                        options.attention, &result.input_importance, c);
+  });
+}
+
+// Stages 5-7 for one level (options.target_vertices), from the front half.
+// The result's mesh is left in the normalized frame (finish_output moves it).
+Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level, PipelineResult* out) {
+  const Mesh& input = front.input;
+  const JobDevice& device = *front.device;
+  const std::string cpu = "cpu";
+  PipelineResult& result = *out;
+  StageRunner stage(options, &result, level);
+  const double spacing_out = target_spacing(front.area, options.target_vertices);
+
+  // Stage 4 for the paper's density: Algorithm 1's field, whose depth scale
+  // follows the output spacing.
   if (options.density == DensityMode::kPaper) {
-    VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {
-      const float scale = resolve_depth_scale(options.field, spacing_out, mean_edge);
-      return VPR_TWIN(c, saliency_field)(input.positions.data(), input.vertex_count(), saliency_points.data(),
-                                         saliency_points.size() / 3, options.field, scale, &result.input_importance, c);
-    }));
-  } else {
-    VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", *device, [&](const ExecContext& c) -> Status {
-      if (curvature.empty()) curvature = mean_curvature(input);  // a CPU rerun after a GPU failure keeps it
-      const std::vector<float> h(curvature.begin(), curvature.end());
-      // The image cue: the front half's saliency points (stage 3), in the
-      // same normalized space as the input's vertices.
-      const FeaturePoints features{saliency_points.data(), saliency_points.size() / 3};
-      return VPR_TWIN(c, attention_field)(input.positions.data(), h.data(),
-                                          visibility.empty() ? nullptr : visibility.data(), features,
-                                          input.vertex_count(), options.attention, &result.input_importance, c);
+    VPR_RETURN_IF_ERROR(stage.run_twin("saliency_field", device, [&](const ExecContext& c) -> Status {
+      const float scale = resolve_depth_scale(options.field, spacing_out, front.mean_edge);
+      return VPR_TWIN(c, saliency_field)(input.positions.data(), input.vertex_count(), front.saliency_points.data(),
+                                         front.saliency_points.size() / 3, options.field, scale,
+                                         &result.input_importance, c);
     }));
   }
 
@@ -423,14 +465,15 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
     VPR_RETURN_IF_ERROR(stage.run(
         "density", cpu,
         [&]() -> Status {
-          const std::vector<float> d = vertex_density(curvature, result.input_importance, options.density);
+          const std::vector<float> d = vertex_density(front.curvature, result.input_importance, options.density);
           std::vector<float> channels(2 * input.vertex_count());
           for (size_t v = 0; v < input.vertex_count(); ++v) {
             channels[2 * v] = result.input_importance[v];
             channels[2 * v + 1] = d[v];
           }
           const double max_edge = spacing_out / std::sqrt(options.cvt_elements_per_vertex);
-          const size_t limit = input.vertex_count() + size_t(64 * options.cvt_elements_per_vertex) * options.target_vertices;
+          const size_t limit =
+              input.vertex_count() + size_t(64 * options.cvt_elements_per_vertex) * options.target_vertices;
           VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, max_edge, limit));
           // Over about two output spacings (elements are a quarter of one apart).
           smooth_over_edges(refined.edges, 16, 2, 1, &refined.value);
@@ -467,8 +510,8 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
             note = text;
             if (result.cvt.parts_below_minimum > 0)
               note += "; " + std::to_string(result.cvt.parts_below_minimum) + " of " +
-                      std::to_string(result.cvt.parts) + " parts got fewer than " +
-                      std::to_string(cvt.min_per_part) + " vertices (target too small)";
+                      std::to_string(result.cvt.parts) + " parts got fewer than " + std::to_string(cvt.min_per_part) +
+                      " vertices (target too small)";
             if (result.cvt.cells_split > 0)
               note += "; " + std::to_string(result.cvt.cells_split) + " cells split for topology, " +
                       std::to_string(result.cvt.cells_merged) + " merged";
@@ -496,8 +539,8 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
             for (size_t v = 0; v < cell.size(); ++v)
               result.saliency[v] = weight[cell[v]] > 0 ? float(sum[cell[v]] / weight[cell[v]]) : 1.0f;
             result.meshing = result.cluster_mesh.repair;
-            note = "dual of the CVT cells; " + std::to_string(result.cluster_mesh.holes_closed) + " dual holes closed, " +
-                   std::to_string(result.cluster_mesh.boundary_loops) + " boundary loops kept";
+            note = "dual of the CVT cells; " + std::to_string(result.cluster_mesh.holes_closed) +
+                   " dual holes closed, " + std::to_string(result.cluster_mesh.boundary_loops) + " boundary loops kept";
             const OffsetFitStats& fit = result.cluster_mesh.offset;
             if (fit.free_vertices > 0) {
               char text[200];
@@ -512,16 +555,14 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
           },
           &note));
       result.back_half = std::string("surface CVT (") + density_mode_name(options.density) + " density)";
-      finish_output(norm, used, given.vertex_count(), options.field.min_importance, &result);
-      result.total_ms = ms_since(job_start);
-      return result;
+      return Status::Ok();
     }
   }
   result.back_half = "paper (adaptive sampling, AWLOP, advancing front)";
 
   // Stage 5: adaptive sampling of the target count (Eq. 7-16).
   std::vector<float> particles, particle_importance;
-  VPR_RETURN_IF_ERROR(stage.run_twin("sampling", *device, [&](const ExecContext& c) -> Status {
+  VPR_RETURN_IF_ERROR(stage.run_twin("sampling", device, [&](const ExecContext& c) -> Status {
     std::vector<double> quantity;
     std::vector<uint32_t> counts, offsets;
     VPR_RETURN_IF_ERROR(VPR_TWIN(c, visual_quantity)(input, result.input_importance.data(), &quantity, c));
@@ -535,20 +576,20 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
   // surface rather than its vertices, so that CAD meshes with long thin
   // triangles (vertices only on creases) do not pull the particles to edges.
   const std::vector<float> sampled_particles = particles;  // a CPU rerun after a GPU failure starts from these
-  VPR_RETURN_IF_ERROR(stage.run_twin("awlop", *device, [&](const ExecContext& c) -> Status {
+  VPR_RETURN_IF_ERROR(stage.run_twin("awlop", device, [&](const ExecContext& c) -> Status {
     particles = sampled_particles;
     const uint64_t count = uint64_t(options.target_vertices) * options.awlop.attraction_samples_per_target;
     std::vector<uint32_t> counts, offsets;
     VPR_RETURN_IF_ERROR(
-        VPR_TWIN(c, distribute_counts)(areas.data(), areas.size(), uint32_t(count), &counts, &offsets, c));
+        VPR_TWIN(c, distribute_counts)(front.areas.data(), front.areas.size(), uint32_t(count), &counts, &offsets, c));
     std::vector<float> ones(input.vertex_count(), 1.0f), surface_points, unused;
     SamplingOptions uniform = options.sampling;
     uniform.seed = options.sampling.seed ^ 0x5EEDA77AC7ull;  // independent of the particles' stream
     uniform.adaptive_min_samples = UINT32_MAX;
     VPR_RETURN_IF_ERROR(VPR_TWIN(c, sample_triangles)(input, ones.data(), counts.data(), offsets.data(), uniform,
                                                       &surface_points, &unused, c));
-    VPR_ASSIGN_OR_RETURN(const double h, awlop_support_radius(options.awlop.support, options.awlop.h_factor, mean_edge,
-                                                              area, options.target_vertices));
+    VPR_ASSIGN_OR_RETURN(const double h, awlop_support_radius(options.awlop.support, options.awlop.h_factor,
+                                                              front.mean_edge, front.area, options.target_vertices));
     return VPR_TWIN(c, awlop)(surface_points.data(), surface_points.size() / 3, particles.data(),
                               particle_importance.data(), particle_importance.size(), h, options.awlop, &result.awlop,
                               c);
@@ -556,7 +597,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
 
   // Stage 7: mesh the optimized points; each output vertex keeps its
   // particle's importance as its saliency value.
-  VPR_RETURN_IF_ERROR(stage.run("meshing", cpu, [&]() -> Status {
+  return stage.run("meshing", cpu, [&]() -> Status {
     std::vector<uint32_t> source;
     // Parallel slabs only where their seams can close: a surface without
     // boundary (an open one would fail the seam check and cost a second run).
@@ -569,11 +610,164 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
     result.saliency.resize(source.size());
     for (size_t v = 0; v < source.size(); ++v) result.saliency[v] = particle_importance[source[v]];
     return Status::Ok();
-  }));
+  });
+}
 
-  finish_output(norm, used, given.vertex_count(), options.field.min_importance, &result);
-  result.total_ms = ms_since(job_start);
+// A level's result: the shared part of the front half, then its back half
+// (level 0 also carries the front half's stage timings).
+PipelineResult level_result(const FrontHalf& front, int level, uint32_t target) {
+  PipelineResult r;
+  r.level = level;
+  r.target = target;
+  r.input_importance = front.shared.input_importance;
+  r.saliency_points = front.shared.saliency_points;
+  r.ignored_vertices = front.shared.ignored_vertices;
+  r.dropped_parts = front.shared.dropped_parts;
+  r.renderer = front.shared.renderer;
+  r.device = front.shared.device;
+  r.cpu_reason = front.shared.cpu_reason;
+  if (level == 0) {
+    r.stages = front.shared.stages;
+    r.saliency_point_positions = front.shared.saliency_point_positions;
+  }
+  return r;
+}
+
+// A level with a visual target: back halves at the counts the search picks,
+// each judged by SSIM against the input from the job's own views (count and
+// resolution); the level is the smallest count that reached the bound (or the
+// largest tried, when none did, which its note says).
+StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptions& options, int level,
+                                           double min_ssim) {
+  VisualSimilarityOptions judge;
+  judge.views = options.views.count;
+  judge.resolution = options.views.resolution;
+  VPR_ASSIGN_OR_RETURN(const VisualReference reference, VisualReference::create(front.input, front.renderer, judge));
+  VisualTargetOptions search;
+  search.min_ssim = min_ssim;
+  search.lowest = kMinTargetVertices;
+  search.highest = uint32_t(std::clamp<size_t>(front.input.vertex_count(), kMinTargetVertices, kMaxTargetVertices));
+  std::optional<PipelineResult> best;  // the smallest passing count's, else the largest count's
+  bool best_passed = false;
+  auto score = [&](uint32_t count) -> StatusOr<double> {
+    PipelineOptions o = options;
+    o.target_vertices = count;
+    PipelineResult attempt = level_result(front, level, count);
+    attempt.stages.clear();
+    VPR_RETURN_IF_ERROR(run_back_half(front, o, level, &attempt));
+    const auto start = Clock::now();
+    VPR_ASSIGN_OR_RETURN(const VisualSimilarity similarity, reference.compare(attempt.mesh));
+    char note[96];
+    std::snprintf(note, sizeof note, "%u vertices: SSIM %.4f (bound %.4f)", count, similarity.ssim_mean, min_ssim);
+    attempt.stages.push_back({"visual_target", ms_since(start), "cpu", note, level});
+    if (options.on_stage) options.on_stage(attempt.stages.back());
+    const bool passes = similarity.ssim_mean >= min_ssim;
+    const bool better = !best || (passes && (!best_passed || count < best->target)) ||
+                        (!passes && !best_passed && count > best->target);
+    if (better) {
+      attempt.search.ssim = similarity.ssim_mean;
+      best = std::move(attempt);
+      best_passed = passes;
+    }
+    return similarity.ssim_mean;
+  };
+  VPR_ASSIGN_OR_RETURN(const VisualTargetOutcome outcome, search_visual_target(search, score));
+  PipelineResult result = std::move(*best);
+  result.search.min_ssim = min_ssim;
+  result.search.tries = int(outcome.tries.size());
+  char note[160];
+  std::snprintf(note, sizeof note, "%u vertices chosen after %zu tries: SSIM %.4f %s %.4f", result.target,
+                outcome.tries.size(), result.search.ssim, outcome.reached ? ">=" : "< (not reached)", min_ssim);
+  result.stages.push_back({"visual_target", 0, "cpu", note, level});
+  if (options.on_stage) options.on_stage(result.stages.back());
   return result;
+}
+
+}  // namespace
+
+Status check_levels(const std::vector<LevelTarget>& levels) {
+  if (levels.empty()) return invalid_argument("the level list is empty: give at least one target");
+  if (levels.size() > kMaxLevels)
+    return invalid_argument(std::to_string(levels.size()) + " levels asked; at most " + std::to_string(kMaxLevels));
+  for (size_t i = 0; i < levels.size(); ++i) {
+    const LevelTarget& l = levels[i];
+    const std::string name = "level " + std::to_string(i) + ": ";
+    const int set = (l.vertices != 0) + (l.fraction != 0) + (l.min_ssim != 0);
+    if (set == 0) return invalid_argument(name + "no target (a vertex count, a fraction or a minimum SSIM; 0 is none)");
+    if (set > 1)
+      return invalid_argument(name + "give one of a vertex count, a fraction or a minimum SSIM, not several");
+    if (l.vertices != 0 && (l.vertices < kMinTargetVertices || l.vertices > kMaxTargetVertices))
+      return invalid_argument(name + "target of " + std::to_string(l.vertices) +
+                              " vertices is outside the supported range [" + std::to_string(kMinTargetVertices) + ", " +
+                              std::to_string(kMaxTargetVertices) + "]");
+    if (l.fraction != 0 && !(l.fraction > 0 && l.fraction <= 1))
+      return invalid_argument(name + "fraction " + std::to_string(l.fraction) + " of the input is outside (0, 1]");
+    if (l.min_ssim != 0 && !(l.min_ssim > 0 && l.min_ssim < 1))
+      return invalid_argument(name + "minimum SSIM " + std::to_string(l.min_ssim) + " is outside (0, 1)");
+  }
+  return Status::Ok();
+}
+
+StatusOr<std::vector<uint32_t>> level_counts(const std::vector<LevelTarget>& levels, size_t input_vertices) {
+  VPR_RETURN_IF_ERROR(check_levels(levels));
+  std::vector<uint32_t> counts;
+  for (size_t i = 0; i < levels.size(); ++i) {
+    const LevelTarget& l = levels[i];
+    if (l.fraction == 0) {
+      counts.push_back(l.vertices);
+      continue;
+    }
+    const double n = std::round(l.fraction * double(input_vertices));
+    if (n < kMinTargetVertices || n > kMaxTargetVertices)
+      return invalid_argument("level " + std::to_string(i) + ": fraction " + std::to_string(l.fraction) + " of " +
+                              std::to_string(input_vertices) + " input vertices is " + std::to_string(int64_t(n)) +
+                              ", outside the supported range [" + std::to_string(kMinTargetVertices) + ", " +
+                              std::to_string(kMaxTargetVertices) + "]");
+    counts.push_back(uint32_t(n));
+  }
+  return counts;
+}
+
+Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, const std::vector<LevelTarget>& levels,
+                           const LevelCallback& on_level) {
+  VPR_RETURN_IF_ERROR(check_levels(levels));
+  PipelineOptions checked = options;
+  checked.target_vertices = kMinTargetVertices;  // each level's count is checked by level_counts
+  VPR_RETURN_IF_ERROR(validate_options(checked));
+  VPR_RETURN_IF_ERROR(validate_mesh(given));
+  FrontHalf front;
+  VPR_RETURN_IF_ERROR(prepare_input(given, options, &front));
+  VPR_ASSIGN_OR_RETURN(const std::vector<uint32_t> counts, level_counts(levels, front.input.vertex_count()));
+  VPR_RETURN_IF_ERROR(run_front_half(options, &front));
+
+  for (size_t i = 0; i < levels.size(); ++i) {
+    PipelineOptions level_options = options;
+    PipelineResult result = level_result(front, int(i), counts[i]);
+    if (levels[i].min_ssim > 0) {
+      VPR_ASSIGN_OR_RETURN(PipelineResult found, run_visual_target(front, options, int(i), levels[i].min_ssim));
+      found.stages.insert(found.stages.begin(), result.stages.begin(), result.stages.end());
+      result = std::move(found);
+    } else {
+      level_options.target_vertices = counts[i];
+      VPR_RETURN_IF_ERROR(run_back_half(front, level_options, int(i), &result));
+    }
+    finish_output(front.norm, front.used, front.given_vertices, options.field.min_importance, &result);
+    result.total_ms = ms_since(front.start);
+    VPR_RETURN_IF_ERROR(on_level(std::move(result)));
+  }
+  return Status::Ok();
+}
+
+StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& options) {
+  VPR_RETURN_IF_ERROR(validate_options(options));
+  LevelTarget one;
+  one.vertices = options.target_vertices;
+  PipelineResult out;
+  VPR_RETURN_IF_ERROR(run_pipeline_levels(given, options, {one}, [&](PipelineResult&& r) {
+    out = std::move(r);
+    return Status::Ok();
+  }));
+  return out;
 }
 
 }  // namespace vpr

@@ -9,20 +9,20 @@
 #include <string>
 #include <vector>
 
+#include "core/exec_context.h"
+#include "core/mesh.h"
+#include "core/status.h"
+#include "job_device.h"
+#include "render/snapshot.h"
+#include "render/views.h"
 #include "resample/adaptive_sampling.h"
 #include "resample/awlop.h"
-#include "core/exec_context.h"
-#include "saliency/image_saliency.h"
-#include "job_device.h"
-#include "core/mesh.h"
-#include "surface/meshing.h"
 #include "saliency/attention_field.h"
+#include "saliency/image_saliency.h"
 #include "saliency/saliency_field.h"
 #include "saliency/visibility.h"
-#include "render/snapshot.h"
-#include "core/status.h"
-#include "render/views.h"
 #include "surface/cluster_mesh.h"
+#include "surface/meshing.h"
 #include "surface/surface_cvt.h"
 #include "surface/surface_density.h"
 
@@ -33,11 +33,16 @@ namespace vpr {
 inline constexpr uint32_t kMinTargetVertices = 100;
 inline constexpr uint32_t kMaxTargetVertices = 2'000'000;
 
+// A job's front half (views, snapshots, image saliency, unprojection, the
+// field) runs once; its back half runs once per level of detail.
+inline constexpr int kFrontHalf = -1;
+
 struct StageTiming {
-  std::string name;    // "render", "image_saliency", ...
-  double ms = 0;       // wall time
-  std::string device;  // "cpu", "cuda", "egl: ...", "osmesa: ..."
-  std::string note;    // e.g. why a stage fell back to the CPU
+  std::string name;        // "render", "image_saliency", ...
+  double ms = 0;           // wall time
+  std::string device;      // "cpu", "cuda", "egl: ...", "osmesa: ..."
+  std::string note;        // e.g. why a stage fell back to the CPU
+  int level = kFrontHalf;  // kFrontHalf (shared by every level), else the level's index
 };
 
 // Where the parallel stages run. kAuto: a CUDA GPU when the build has the twins
@@ -57,9 +62,9 @@ struct PipelineOptions {
   int cuda_device = 0;                    // which GPU, when one is used
   DeviceBudget* device_budget = nullptr;  // null: no per-job device memory limit
   ImageSaliencyOptions image;
-  SaliencyFieldOptions field;          // the paper's field, for DensityMode::kPaper
-  AttentionFieldOptions attention;     // the field of the other density modes
-  VisibilityOptions visibility;        // its visibility cue over the views
+  SaliencyFieldOptions field;       // the paper's field, for DensityMode::kPaper
+  AttentionFieldOptions attention;  // the field of the other density modes
+  VisibilityOptions visibility;     // its visibility cue over the views
   SamplingOptions sampling;
   AwlopOptions awlop;
   MeshingOptions meshing;
@@ -71,7 +76,7 @@ struct PipelineOptions {
   // shared model (docs/quality.md, "What the guidance buys") it wins on SSIM and
   // Hausdorff; kPerception becomes the default once it wins (docs/perception.md).
   DensityMode density = DensityMode::kCurvature;
-  CvtOptions cvt;  // its seed is sampling.seed
+  CvtOptions cvt;                   // its seed is sampling.seed
   ClusterMeshOptions cluster_mesh;  // the dual's relaxation and L2 fit (cluster_mesh.h)
   // Surface elements per output vertex at the mean spacing (the refinement's
   // edge length is the target spacing over sqrt of this).
@@ -94,7 +99,28 @@ struct PipelineOptions {
   std::function<void(const char*)> on_stage_begin;
 };
 
+// One level of a chain: exactly one of a vertex count, a share of the input's
+// vertices (those faces use), or a visual fidelity (the fewest vertices whose
+// output keeps the mean SSIM of the job's own views at or above min_ssim;
+// visual_target.h).
+struct LevelTarget {
+  uint32_t vertices = 0;
+  double fraction = 0;  // (0, 1]
+  double min_ssim = 0;  // (0, 1)
+};
+inline constexpr size_t kMaxLevels = 16;
+
+// How a level's count was found (a visual target's search; zeros otherwise).
+struct LevelSearch {
+  double min_ssim = 0;  // the bound asked
+  double ssim = 0;      // the score the chosen count reached
+  int tries = 0;        // back halves run to find it
+};
+
 struct PipelineResult {
+  int level = 0;        // index in the job's level list (0 for a one-target job)
+  uint32_t target = 0;  // the vertex count this level asked for (a visual target: the count chosen)
+  LevelSearch search;
   Mesh mesh;                            // the remeshed surface, in the input's frame (its origin)
   std::vector<float> saliency;          // #V_out importance values in [min_importance, 1]
   std::vector<float> input_importance;  // #V_in: the saliency field on the input mesh
@@ -121,6 +147,24 @@ struct PipelineResult {
 // Checks options that do not depend on the mesh (target range, constants).
 Status validate_options(const PipelineOptions& options);
 
+// One target: options.target_vertices.
 StatusOr<PipelineResult> run_pipeline(const Mesh& input, const PipelineOptions& options);
+
+// A level-of-detail chain: the front half once, then the back half of each
+// level in the order given; on_level gets each level's result as soon as it
+// is done (level 0 holds the front half's stage timings; its error, if any,
+// ends the job). options.target_vertices is not used. Errors:
+// INVALID_ARGUMENT for a bad level list (check_levels), else run_pipeline's.
+using LevelCallback = std::function<Status(PipelineResult&& level)>;
+Status run_pipeline_levels(const Mesh& input, const PipelineOptions& options, const std::vector<LevelTarget>& levels,
+                           const LevelCallback& on_level);
+
+// A level list's own checks (1 to kMaxLevels levels, each with exactly one
+// target in range), naming the level and the limit.
+Status check_levels(const std::vector<LevelTarget>& levels);
+// Vertex counts of the levels with a count or a share of input_vertices (the
+// vertices faces use); 0 for a visual target. INVALID_ARGUMENT when a share
+// gives a count outside [kMinTargetVertices, kMaxTargetVertices].
+StatusOr<std::vector<uint32_t>> level_counts(const std::vector<LevelTarget>& levels, size_t input_vertices);
 
 }  // namespace vpr

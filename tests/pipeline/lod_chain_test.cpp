@@ -1,0 +1,156 @@
+// Levels of detail (issue 20): the front half once, the back half per level,
+// each level what the same target run alone gives; visual targets.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "eval/visual_similarity.h"
+#include "io/mesh_io.h"
+#include "pipeline/pipeline.h"
+#include "test_meshes.h"
+
+namespace vpr {
+namespace {
+
+Mesh bumpy_sphere() {
+  const std::string obj = testing::bumpy_sphere_obj(1.0, 0.0, 0);
+  auto mesh = parse_mesh(reinterpret_cast<const uint8_t*>(obj.data()), obj.size(), MeshFormat::kObj);
+  EXPECT_TRUE(mesh.ok()) << mesh.status().to_string();
+  return std::move(mesh).value();
+}
+
+PipelineOptions small_views() {
+  PipelineOptions o;
+  o.views.resolution = 256;
+  return o;
+}
+
+LevelTarget count(uint32_t n) {
+  LevelTarget l;
+  l.vertices = n;
+  return l;
+}
+
+std::vector<PipelineResult> run_levels(const Mesh& mesh, const PipelineOptions& o, const std::vector<LevelTarget>& l,
+                                       std::vector<StageTiming>* live = nullptr) {
+  PipelineOptions options = o;
+  if (live) options.on_stage = [live](const StageTiming& t) { live->push_back(t); };
+  std::vector<PipelineResult> out;
+  Status s = run_pipeline_levels(mesh, options, l, [&](PipelineResult&& r) {
+    out.push_back(std::move(r));
+    return Status::Ok();
+  });
+  EXPECT_TRUE(s.ok()) << s.to_string();
+  return out;
+}
+
+TEST(LodChain, ThreeLevelsInOrderWithTheFrontHalfOnceEachAsIfRunAlone) {
+  const Mesh mesh = bumpy_sphere();  // 2,562 vertices
+  LevelTarget quarter;
+  quarter.fraction = 0.25;
+  std::vector<StageTiming> live;
+  const std::vector<PipelineResult> levels = run_levels(mesh, small_views(), {count(1500), count(600), quarter}, &live);
+  ASSERT_EQ(levels.size(), 3u);
+  const uint32_t asked[3] = {1500, 600, 641};  // 0.25 x 2,562, rounded
+  const std::set<std::string> front = {"views",     "render",     "image_saliency",
+                                       "unproject", "visibility", "saliency_field"};
+  for (int i = 0; i < 3; ++i) {
+    const PipelineResult& r = levels[size_t(i)];
+    EXPECT_EQ(r.level, i);
+    EXPECT_EQ(r.target, asked[i]);
+    EXPECT_NEAR(double(r.mesh.vertex_count()), asked[i], 0.02 * asked[i]);
+    EXPECT_EQ(r.saliency.size(), r.mesh.vertex_count());
+    EXPECT_EQ(r.input_importance.size(), mesh.vertex_count());
+    for (const StageTiming& t : r.stages) {
+      if (front.count(t.name)) {
+        EXPECT_EQ(i, 0) << t.name << " reported again with level " << i;
+        EXPECT_EQ(t.level, kFrontHalf) << t.name;
+      } else {
+        EXPECT_EQ(t.level, i) << t.name;
+      }
+    }
+  }
+  // Live stage events: each front-half stage once, then the back halves in level order.
+  for (const std::string& name : front)
+    EXPECT_EQ(std::count_if(live.begin(), live.end(), [&](const StageTiming& t) { return t.name == name; }), 1) << name;
+  for (size_t k = 1; k < live.size(); ++k) EXPECT_LE(live[k - 1].level, live[k].level);
+
+  // Each level is the same level run alone, bit for bit.
+  for (int i = 0; i < 3; ++i) {
+    PipelineOptions alone = small_views();
+    alone.target_vertices = asked[i];
+    auto single = run_pipeline(mesh, alone);
+    ASSERT_TRUE(single.ok()) << single.status().to_string();
+    EXPECT_EQ(single->mesh.indices, levels[size_t(i)].mesh.indices) << "level " << i;
+    EXPECT_EQ(single->mesh.positions, levels[size_t(i)].mesh.positions) << "level " << i;
+    EXPECT_EQ(single->saliency, levels[size_t(i)].saliency) << "level " << i;
+  }
+}
+
+TEST(LodChain, BadLevelListsAreRefusedNamingTheProblem) {
+  const Mesh mesh = testing::icosphere(2);  // 162 vertices
+  auto refused = [&](const std::vector<LevelTarget>& levels, const std::string& words) {
+    Status s = run_pipeline_levels(mesh, PipelineOptions{}, levels, [](PipelineResult&&) { return Status::Ok(); });
+    EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << words;
+    EXPECT_NE(s.message().find(words), std::string::npos) << s.message();
+  };
+  refused({}, "level list is empty");
+  refused({count(500), LevelTarget{}}, "level 1: no target");
+  refused(std::vector<LevelTarget>(17, count(500)), "17 levels asked; at most 16");
+  LevelTarget too_much;
+  too_much.fraction = 1.5;
+  refused({too_much}, "level 0: fraction 1.5");
+  LevelTarget tiny;
+  tiny.fraction = 0.1;  // 16 of 162 vertices
+  refused({count(120), tiny}, "level 1: fraction 0.1");
+  LevelTarget both = count(300);
+  both.min_ssim = 0.9;
+  refused({both}, "not several");
+  refused({count(50)}, "level 0: target of 50 vertices");
+}
+
+// A visual target on a synthetic shape lands within 2% of the smallest count
+// a sweep finds passing, and says how many tries it took.
+TEST(LodChain, VisualTargetFindsTheFewestVerticesThatKeepTheBound) {
+  const Mesh mesh = bumpy_sphere();
+  const PipelineOptions o = small_views();
+  constexpr double kBound = 0.95;  // the remesh at the input's 2,562 vertices reaches 0.981
+  LevelTarget visual;
+  visual.min_ssim = kBound;
+  const std::vector<PipelineResult> found = run_levels(mesh, o, {visual});
+  ASSERT_EQ(found.size(), 1u);
+  const PipelineResult& r = found[0];
+  ASSERT_GT(r.search.tries, 0);
+  EXPECT_LE(r.search.tries, 8);
+  EXPECT_DOUBLE_EQ(r.search.min_ssim, kBound);
+  ASSERT_GE(r.search.ssim, kBound) << "not reached: " << r.target << " vertices";
+  EXPECT_EQ(r.mesh.vertex_count(), size_t(r.target)) << "the level is the chosen count's output";
+
+  // The sweep: 2% steps from 60% of the chosen count up to it, judged from
+  // the same views; no count more than 2% below the chosen one may pass.
+  auto renderer = create_renderer(RendererKind::kAuto);
+  ASSERT_TRUE(renderer.ok());
+  VisualSimilarityOptions judge;
+  judge.views = o.views.count;
+  judge.resolution = o.views.resolution;
+  auto reference = VisualReference::create(mesh, renderer->get(), judge);
+  ASSERT_TRUE(reference.ok()) << reference.status().to_string();
+  std::vector<LevelTarget> sweep;
+  for (double n = 0.6 * r.target; n < r.target / 1.02; n *= 1.02) sweep.push_back(count(uint32_t(n)));
+  for (size_t start = 0; start < sweep.size(); start += kMaxLevels) {
+    const std::vector<LevelTarget> part(sweep.begin() + long(start),
+                                        sweep.begin() + long(std::min(sweep.size(), start + kMaxLevels)));
+    for (const PipelineResult& level : run_levels(mesh, o, part)) {
+      auto score = reference->compare(level.mesh);
+      ASSERT_TRUE(score.ok());
+      EXPECT_LT(score->ssim_mean, kBound) << level.target << " vertices pass, below the chosen " << r.target;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace vpr

@@ -1,0 +1,83 @@
+// The visual target's search (issue 20) on scores with a known answer.
+#include "pipeline/visual_target.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+
+namespace vpr {
+namespace {
+
+// 1 - SSIM = c n^-a: the smallest n with SSIM >= bound, by brute force.
+uint32_t smallest_passing(double c, double a, double bound, uint32_t lo, uint32_t hi) {
+  for (uint32_t n = lo; n <= hi; ++n)
+    if (1.0 - c * std::pow(double(n), -a) >= bound) return n;
+  return 0;
+}
+
+TEST(VisualTarget, LandsWithinTwoPercentOfTheSmallestPassingCountInFewTries) {
+  struct Case {
+    double c, a, bound;
+  };
+  for (const Case k : {Case{0.8, 0.5, 0.97}, Case{2.0, 0.7, 0.99}, Case{0.3, 0.3, 0.95}, Case{5.0, 1.0, 0.999}}) {
+    VisualTargetOptions o;
+    o.min_ssim = k.bound;
+    o.lowest = 100;
+    o.highest = 200000;
+    const uint32_t best = smallest_passing(k.c, k.a, k.bound, o.lowest, o.highest);
+    ASSERT_GT(best, 0u);
+    auto found =
+        search_visual_target(o, [&](uint32_t n) -> StatusOr<double> { return 1.0 - k.c * std::pow(double(n), -k.a); });
+    ASSERT_TRUE(found.ok()) << found.status().to_string();
+    EXPECT_TRUE(found->reached);
+    EXPECT_GE(found->count, best) << "a count below the smallest passing one cannot pass";
+    EXPECT_LE(double(found->count), 1.02 * best) << "c " << k.c << " a " << k.a;
+    EXPECT_GE(found->ssim, k.bound);
+    // The model is exact here: a handful of tries, far fewer than bisection's
+    // log2(2000) = 11 from the same range.
+    EXPECT_LE(found->tries.size(), 6u) << "c " << k.c << " a " << k.a;
+  }
+}
+
+// A score that is not a power law (a step near the answer, flat elsewhere)
+// still ends inside the tolerance: the tries stay strictly inside the bracket.
+TEST(VisualTarget, ConvergesOnAScoreTheModelDoesNotFit) {
+  VisualTargetOptions o;
+  o.min_ssim = 0.9;
+  o.lowest = 100;
+  o.highest = 50000;
+  o.max_tries = 40;
+  auto found = search_visual_target(o, [](uint32_t n) -> StatusOr<double> { return n >= 7777 ? 0.95 : 0.5; });
+  ASSERT_TRUE(found.ok());
+  EXPECT_TRUE(found->reached);
+  EXPECT_GE(found->count, 7777u);
+  EXPECT_LE(double(found->count), 1.02 * 7777);
+}
+
+TEST(VisualTarget, SaysWhenTheBoundIsOutOfReachAndPassesErrorsOn) {
+  VisualTargetOptions o;
+  o.min_ssim = 0.99;
+  o.lowest = 100;
+  o.highest = 3000;
+  auto found = search_visual_target(o, [](uint32_t n) -> StatusOr<double> { return 0.9 + 1e-6 * n; });
+  ASSERT_TRUE(found.ok());
+  EXPECT_FALSE(found->reached);
+  EXPECT_EQ(found->count, 3000u);  // the largest tried
+
+  o.min_ssim = 0.5;  // the lowest count already passes: one try is enough
+  found = search_visual_target(o, [](uint32_t) -> StatusOr<double> { return 0.9; });
+  ASSERT_TRUE(found.ok());
+  EXPECT_EQ(found->count, 100u);
+  EXPECT_LE(found->tries.size(), 4u);
+
+  auto failed = search_visual_target(o, [](uint32_t) -> StatusOr<double> { return internal_error("render failed"); });
+  ASSERT_FALSE(failed.ok());
+  EXPECT_NE(failed.status().message().find("render failed"), std::string::npos);
+  o.min_ssim = 1.5;
+  EXPECT_EQ(search_visual_target(o, [](uint32_t) -> StatusOr<double> { return 1.0; }).status().code(),
+            StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace vpr

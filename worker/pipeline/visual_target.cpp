@@ -1,0 +1,89 @@
+#include "visual_target.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace vpr {
+namespace {
+
+// log(1 - SSIM), floored so that a perfect score stays finite.
+double error_of(double ssim) {
+  return std::log(std::max(1.0 - ssim, 1e-9));
+}
+
+}  // namespace
+
+StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
+                                                   const std::function<StatusOr<double>(uint32_t)>& score) {
+  if (!(o.min_ssim > 0 && o.min_ssim < 1)) return invalid_argument("minimum SSIM must be in (0, 1)");
+  if (o.lowest < 1 || o.highest < o.lowest) return invalid_argument("the visual target's count range is empty");
+  VisualTargetOutcome out;
+  const double goal = error_of(o.min_ssim);
+  // The bracket: the largest count that failed, the smallest that passed.
+  uint32_t failed = 0, passed = 0;
+  double passed_ssim = 0;
+  auto done = [&]() {
+    if (passed == o.lowest) return true;   // nothing smaller is allowed
+    if (failed == o.highest) return true;  // nothing larger is allowed
+    return passed > 0 && failed > 0 && double(passed) <= double(failed) * (1.0 + o.tolerance);
+  };
+  uint32_t next = o.first > 0 ? o.first : uint32_t(std::lround(std::sqrt(double(o.lowest) * double(o.highest))));
+  while (int(out.tries.size()) < o.max_tries) {
+    next = std::clamp(next, o.lowest, o.highest);
+    VPR_ASSIGN_OR_RETURN(const double s, score(next));
+    out.tries.push_back({next, s});
+    if (s >= o.min_ssim) {
+      if (passed == 0 || next < passed) passed = next, passed_ssim = s;
+    } else if (next > failed) {
+      failed = next;
+    }
+    if (done()) break;
+
+    // The model through the two tries whose errors are nearest the goal.
+    std::vector<VisualTry> near = out.tries;
+    std::sort(near.begin(), near.end(), [&](const VisualTry& a, const VisualTry& b) {
+      const double da = std::fabs(error_of(a.ssim) - goal), db = std::fabs(error_of(b.ssim) - goal);
+      return da != db ? da < db : a.count < b.count;
+    });
+    double log_next;
+    const VisualTry& a = near[0];
+    const VisualTry* b = nullptr;
+    for (size_t i = 1; i < near.size() && !b; ++i)
+      if (near[i].count != a.count) b = &near[i];
+    const double slope = b ? (error_of(b->ssim) - error_of(a.ssim)) / (std::log(b->count) - std::log(a.count)) : 0;
+    if (b && slope < -1e-3) {
+      log_next = std::log(a.count) + (goal - error_of(a.ssim)) / slope;
+    } else {
+      // One try, or a score that does not fall with the count here: the
+      // usual rate for surfaces, 1 - SSIM ~ n^-1/2.
+      log_next = std::log(a.count) - 2.0 * (goal - error_of(a.ssim));
+    }
+    // Strictly inside the bracket, away from its ends (a tenth of its width
+    // in log n), and at most a factor of 4 past a one-sided bracket.
+    const double lo = failed > 0 ? std::log(failed) : std::log(o.lowest) - 1e-9;
+    const double hi = passed > 0 ? std::log(passed) : std::log(o.highest) + 1e-9;
+    const double margin = 0.1 * (hi - lo);
+    log_next = std::clamp(log_next, lo + margin, hi - margin);
+    if (failed == 0) log_next = std::max(log_next, std::log(passed) - std::log(4.0));
+    if (passed == 0) log_next = std::min(log_next, std::log(failed) + std::log(4.0));
+    uint32_t n = uint32_t(std::lround(std::exp(log_next)));
+    // Rounding must still move inside the bracket.
+    if (failed > 0 && n <= failed) n = failed + 1;
+    if (passed > 0 && n >= passed) n = passed - 1;
+    next = n;
+  }
+  out.reached = passed > 0;
+  if (out.reached) {
+    out.count = passed;
+    out.ssim = passed_ssim;
+  } else {
+    const auto best = std::max_element(out.tries.begin(), out.tries.end(),
+                                       [](const VisualTry& x, const VisualTry& y) { return x.count < y.count; });
+    out.count = best->count;
+    out.ssim = best->ssim;
+  }
+  return out;
+}
+
+}  // namespace vpr

@@ -1,0 +1,44 @@
+// A visual target for a level of detail (issue 20): the fewest vertices whose
+// output, rendered from the job's own views, keeps the mean SSIM against the
+// input at or above a bound. Each try runs the back half at one count (the
+// front half is shared); the search brackets the count and picks the next try
+// from a model of the score against the count, 1 - SSIM ~ c n^-a (a line in
+// log n, log(1 - SSIM)), fitted to the two tries nearest the bound, kept
+// strictly inside the bracket, and stops when the bracket is within 2%.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "core/status.h"
+
+namespace vpr {
+
+struct VisualTargetOptions {
+  double min_ssim = 0.97;     // the bound, in (0, 1)
+  uint32_t lowest = 100;      // the fewest vertices tried
+  uint32_t highest = 100000;  // the most vertices tried
+  uint32_t first = 0;         // the first try; 0: the geometric mean of lowest and highest
+  double tolerance = 0.02;    // stop when the smallest passing count is within this of the largest failing one
+  int max_tries = 12;         // a bound on the back halves run
+};
+
+struct VisualTry {
+  uint32_t count = 0;
+  double ssim = 0;
+};
+
+struct VisualTargetOutcome {
+  uint32_t count = 0;            // the smallest count tried that reached the bound (the largest tried when none did)
+  double ssim = 0;               // its score
+  bool reached = false;          // false: even `highest` vertices stay below the bound (or the tries ran out first)
+  std::vector<VisualTry> tries;  // in the order run
+};
+
+// score(n): runs the back half at n vertices and returns its mean SSIM (the
+// caller keeps the results it may hand back). Errors from score end the search.
+StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& options,
+                                                   const std::function<StatusOr<double>(uint32_t)>& score);
+
+}  // namespace vpr
