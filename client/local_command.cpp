@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "commands.h"
@@ -29,6 +30,16 @@ double ms_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
 }
 
+// out.ply -> out.lod0.ply, out.lod1.ply, ... (the extension keeps the format).
+std::string level_path(const std::string& output, size_t level) {
+  const size_t slash = output.find_last_of('/');
+  const size_t dot = output.find_last_of('.');
+  const bool has_ext = dot != std::string::npos && (slash == std::string::npos || dot > slash);
+  const std::string stem = has_ext ? output.substr(0, dot) : output;
+  const std::string ext = has_ext ? output.substr(dot) : "";
+  return stem + ".lod" + std::to_string(level) + ext;
+}
+
 int fail(const Status& s) {
   std::fprintf(stderr, "vpremesh: error: %s\n", s.to_string().c_str());
   return exit_code_for(s);
@@ -44,7 +55,12 @@ int run_local(LocalArgs& a) {
   if (!renderer.ok()) return fail(renderer.status());
   o.renderer = *renderer;
   if (Status s = apply_pipeline_flags(a.flags, &o); !s.ok()) return fail(s);
-  if (Status s = validate_options(o); !s.ok()) return fail(s);
+  auto levels = levels_from_flags(a.flags, o);
+  if (!levels.ok()) return fail(levels.status());
+  const bool chain = levels->size() > 1;  // one file per level
+  if (o.target_vertices != 0) {
+    if (Status s = validate_options(o); !s.ok()) return fail(s);
+  }
   // Check the output format before hours of work are spent.
   if (auto f = format_from_path(a.output); !f.ok()) return fail(f.status());
 
@@ -57,24 +73,41 @@ int run_local(LocalArgs& a) {
   summary.input_vertices = mesh->vertex_count();
   summary.input_faces = mesh->face_count();
 
-  auto result = run_pipeline(*mesh, o);
-  if (!result.ok()) return fail(result.status());
-
-  start = std::chrono::steady_clock::now();
-  DracoOptions written;
-  written.gltf_draco = !a.no_draco;
-  if (Status s = write_mesh(a.output, result->mesh, result->saliency.data(), written); !s.ok()) return fail(s);
-  summary.write_ms = ms_since(start);
-  summary.output_vertices = result->mesh.vertex_count();
-  summary.output_faces = result->mesh.face_count();
-  if (!a.field_out.empty()) {
-    if (Status s = write_mesh(a.field_out, *mesh, result->input_importance.data()); !s.ok()) return fail(s);
-  }
-
-  if (a.json)
-    std::printf("%s\n", report_json(*result, summary).dump(2).c_str());
-  else
-    std::printf("%s", format_stage_table(*result, summary).c_str());
+  // Each level is written, and reported, as soon as it is done.
+  nlohmann::json reports = nlohmann::json::array();
+  auto write_level = [&](PipelineResult&& result) -> Status {
+    const std::string path = chain ? level_path(a.output, size_t(result.level)) : a.output;
+    auto written_at = std::chrono::steady_clock::now();
+    DracoOptions written;
+    written.gltf_draco = !a.no_draco;
+    VPR_RETURN_IF_ERROR(write_mesh(path, result.mesh, result.saliency.data(), written));
+    RunSummary s = summary;
+    s.target_vertices = result.target;
+    s.write_ms = ms_since(written_at);
+    s.output_vertices = result.mesh.vertex_count();
+    s.output_faces = result.mesh.face_count();
+    if (!a.field_out.empty() && result.level == 0)
+      VPR_RETURN_IF_ERROR(write_mesh(a.field_out, *mesh, result.input_importance.data()));
+    if (result.level > 0) s.read_ms = 0;  // read once, reported with level 0
+    if (a.json) {
+      nlohmann::json j = report_json(result, s);
+      if (chain) {
+        j["level"] = result.level;
+        j["output_file"] = path;
+      }
+      if (result.search.min_ssim > 0)
+        j["visual_target"] = {
+            {"min_ssim", result.search.min_ssim}, {"ssim", result.search.ssim}, {"tries", result.search.tries}};
+      reports.push_back(j);
+    } else {
+      if (chain) std::printf("level %d -> %s\n", result.level, path.c_str());
+      std::printf("%s", format_stage_table(result, s).c_str());
+      if (chain) std::printf("\n");
+    }
+    return Status::Ok();
+  };
+  if (Status s = run_pipeline_levels(*mesh, o, *levels, write_level); !s.ok()) return fail(s);
+  if (a.json) std::printf("%s\n", (chain ? reports : reports[0]).dump(2).c_str());
   return kExitOk;
 }
 
@@ -85,7 +118,9 @@ Command add_local_command(CLI::App& app) {
   PipelineOptions& o = args->options;
   CLI::App* cmd = app.add_subcommand("local", "Remesh a file in this process (no server)");
   cmd->add_option("input", args->input, "Input mesh (.drc .glb .gltf .obj .ply .off .stl)")->required();
-  cmd->add_option("-o,--output", args->output, "Output mesh (.drc .glb .gltf .ply .obj)")->required();
+  cmd->add_option("-o,--output", args->output,
+                  "Output mesh (.drc .glb .gltf .ply .obj); with several levels OUT.lod0.EXT, OUT.lod1.EXT, ...")
+      ->required();
   cmd->add_flag("--no-draco", args->no_draco, "Write .glb/.gltf output without KHR_draco_mesh_compression");
   add_pipeline_flags(cmd, o, args->flags);
   cmd->add_option("--renderer", args->renderer, "auto, egl or osmesa")->capture_default_str();

@@ -1,11 +1,20 @@
 #include "pipeline_flags.h"
 
 #include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
 
 namespace vpr::cli {
 
 void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& values) {
-  cmd->add_option("-n,--target-vertices", o.target_vertices, "Output vertex count (within 2%)")->required();
+  cmd->add_option("-n,--target-vertices", o.target_vertices, "Output vertex count (within 2%)");
+  cmd->add_option("--lod", values.lod,
+                  "Levels of detail instead of -n: counts or fractions of the input's vertices, e.g. 20000,5000,0.01; "
+                  "the views and the field are computed once for all");
+  cmd->add_option("--min-ssim", values.min_ssim,
+                  "A level with a visual target: the fewest vertices whose output keeps this mean SSIM against the "
+                  "input over the job's views (after any --lod levels)");
   cmd->add_option("--views", o.views.count, "Number of views: 6 (axes) or 14 (axes + diagonals)")
       ->check(CLI::IsMember({6, 14}))
       ->capture_default_str();
@@ -37,8 +46,9 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--view-bias", o.attention.view_bias,
                   "Attention field: weight of the front-top bias (+y up, +z front), 0 = off")
       ->capture_default_str();
-  cmd->add_option("--visibility-bias", o.visibility.view_bias,
-                  "Attention field: weight of the front-top views in the visibility cue (+y up, +z front), 0 = all alike")
+  cmd->add_option(
+         "--visibility-bias", o.visibility.view_bias,
+         "Attention field: weight of the front-top views in the visibility cue (+y up, +z front), 0 = all alike")
       ->capture_default_str();
   cmd->add_flag("--image-cue", values.image_cue,
                 "Attention field: add the image cue (the views' feature pixels near each vertex, weighted)");
@@ -50,10 +60,11 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
                   "(0: keep every part)")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
-  cmd->add_option("--density", values.density,
-                  "Vertex density: curvature (CVT on the surface, denser where curved), perception (curvature x the attention "
-                  "field), uniform, or "
-                  "paper (the paper's sampling, AWLOP and advancing front)")
+  cmd->add_option(
+         "--density", values.density,
+         "Vertex density: curvature (CVT on the surface, denser where curved), perception (curvature x the attention "
+         "field), uniform, or "
+         "paper (the paper's sampling, AWLOP and advancing front)")
       ->check(CLI::IsMember({"perception", "curvature", "uniform", "paper"}))
       ->capture_default_str();
 }
@@ -70,6 +81,57 @@ Status apply_pipeline_flags(const PipelineFlagValues& values, PipelineOptions* o
     o->views.user_rotation = r;
   }
   return Status::Ok();
+}
+
+StatusOr<std::vector<LevelTarget>> parse_level_list(const std::string& list) {
+  std::vector<LevelTarget> levels;
+  size_t start = 0;
+  while (start <= list.size()) {
+    const size_t comma = std::min(list.find(',', start), list.size());
+    const std::string item = list.substr(start, comma - start);
+    const std::string name = "--lod item " + std::to_string(levels.size()) + " '" + item + "'";
+    char* end = nullptr;
+    errno = 0;
+    const double value = std::strtod(item.c_str(), &end);
+    if (item.empty() || end != item.c_str() + item.size() || errno != 0 || !std::isfinite(value))
+      return invalid_argument(name + " is not a number");
+    LevelTarget level;
+    if (value > 1) {
+      if (value != std::floor(value) || value > 4294967295.0)
+        return invalid_argument(name + ": a vertex count must be a whole number");
+      level.vertices = uint32_t(value);
+    } else if (value > 0) {
+      level.fraction = value;
+    } else {
+      return invalid_argument(name + ": a level must be a count above 1 or a fraction in (0, 1]");
+    }
+    levels.push_back(level);
+    start = comma + 1;
+  }
+  VPR_RETURN_IF_ERROR(check_levels(levels));
+  return levels;
+}
+
+StatusOr<std::vector<LevelTarget>> levels_from_flags(const PipelineFlagValues& values, const PipelineOptions& o) {
+  const bool chain = !values.lod.empty() || values.min_ssim != 0;
+  if (o.target_vertices != 0 && chain) return invalid_argument("give -n or --lod/--min-ssim, not both");
+  if (o.target_vertices == 0 && !chain) return invalid_argument("a target is required: -n, --lod or --min-ssim");
+  if (!chain) {
+    LevelTarget one;
+    one.vertices = o.target_vertices;
+    return std::vector<LevelTarget>{one};
+  }
+  std::vector<LevelTarget> levels;
+  if (!values.lod.empty()) {
+    VPR_ASSIGN_OR_RETURN(levels, parse_level_list(values.lod));
+  }
+  if (values.min_ssim != 0) {
+    LevelTarget visual;
+    visual.min_ssim = values.min_ssim;
+    levels.push_back(visual);
+  }
+  VPR_RETURN_IF_ERROR(check_levels(levels));
+  return levels;
 }
 
 }  // namespace vpr::cli

@@ -17,6 +17,9 @@ struct PipelineFlagValues {
   bool no_pca = false;
   bool image_cue = false;
   std::vector<double> rotation;
+  // Levels of detail (issue 20): --lod COUNT|FRACTION,... and --min-ssim S.
+  std::string lod;
+  double min_ssim = 0;
 };
 
 // -n/--target-vertices, views, seed, rotation and the paper's constants
@@ -25,5 +28,14 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
 
 // Applies the converted flags to `o`; INVALID_ARGUMENT for a bad rotation.
 Status apply_pipeline_flags(const PipelineFlagValues& values, PipelineOptions* o);
+
+// The job's levels: -n alone is one level; --lod gives a list (whole numbers
+// are vertex counts, numbers in (0, 1] fractions of the input's vertices) and
+// --min-ssim adds a level with a visual target after them. INVALID_ARGUMENT
+// for none of them, -n with the others, or a malformed list (check_levels).
+StatusOr<std::vector<LevelTarget>> levels_from_flags(const PipelineFlagValues& values, const PipelineOptions& o);
+
+// "20000,5000,0.1" -> levels; INVALID_ARGUMENT naming the bad item.
+StatusOr<std::vector<LevelTarget>> parse_level_list(const std::string& list);
 
 }  // namespace vpr::cli

@@ -131,7 +131,8 @@ TEST_F(CliTest, LocalGltfRoundTrips) {
     auto input = read_mesh(path(c.input));
     ASSERT_TRUE(input.ok());
     EXPECT_NEAR(mesh->scale, input->scale, 0.02 * input->scale) << out;
-    for (int a = 0; a < 3; ++a) EXPECT_NEAR(mesh->origin[size_t(a)], input->origin[size_t(a)], 0.02 * input->scale) << out;
+    for (int a = 0; a < 3; ++a)
+      EXPECT_NEAR(mesh->origin[size_t(a)], input->origin[size_t(a)], 0.02 * input->scale) << out;
   }
 }
 
@@ -144,12 +145,14 @@ TEST_F(CliTest, LocalOutputFollowsTheInputsTranslationAndScaleAndIgnoresStrayVer
     double scale, shift;
     int strays;
   };
-  const Case cases[] = {{"plain", 1, 0, 0},    {"moved", 1, 1e6, 0},    {"far", 1, -1e7, 0},
-                        {"tiny", 1e-6, 0, 0},  {"huge", 1e6, 0, 0},     {"strays", 1, 0, 100}};
+  const Case cases[] = {{"plain", 1, 0, 0},   {"moved", 1, 1e6, 0}, {"far", 1, -1e7, 0},
+                        {"tiny", 1e-6, 0, 0}, {"huge", 1e6, 0, 0},  {"strays", 1, 0, 100}};
   std::vector<Mesh> out;
   for (const Case& c : cases) {
-    const std::string in = write(std::string(c.name) + ".obj", vpr::testing::bumpy_sphere_obj(c.scale, c.shift, c.strays));
-    CliRun r = run_cli("local " + in + " -o " + path(std::string(c.name) + "_out.obj") + " --target-vertices 300 --json");
+    const std::string in =
+        write(std::string(c.name) + ".obj", vpr::testing::bumpy_sphere_obj(c.scale, c.shift, c.strays));
+    CliRun r =
+        run_cli("local " + in + " -o " + path(std::string(c.name) + "_out.obj") + " --target-vertices 300 --json");
     ASSERT_EQ(r.code, 0) << c.name << ": " << r.all();
     EXPECT_EQ(nlohmann::json::parse(r.out)["ignored_vertices"], c.strays) << c.name;
     auto mesh = read_mesh(path(std::string(c.name) + "_out.obj"));
@@ -188,6 +191,35 @@ TEST_F(CliTest, TablePrintsEveryStage) {
     EXPECT_NE(r.all().find(stage), std::string::npos) << r.all();
 }
 
+// --lod: one file per level, OUT.lodN.EXT, each with its field and its count,
+// reported in level order with the front half's stages once (issue 20).
+TEST_F(CliTest, LocalLodChainWritesOneFilePerLevel) {
+  CliRun r = run_cli("local ../shared/models/spot.obj -o " + path("spot.ply") + " --lod 900,0.1 --json");
+  ASSERT_EQ(r.code, 0) << r.all();
+  const nlohmann::json j = nlohmann::json::parse(r.all());
+  ASSERT_TRUE(j.is_array());
+  ASSERT_EQ(j.size(), 2u);
+  const int asked[2] = {900, 293};  // 0.1 of 2,930
+  for (int level = 0; level < 2; ++level) {
+    const nlohmann::json& l = j[size_t(level)];
+    EXPECT_EQ(l["level"], level);
+    EXPECT_EQ(l["target_vertices"], asked[level]);
+    const std::string file = path("spot.lod" + std::to_string(level) + ".ply");
+    EXPECT_EQ(l["output_file"], file);
+    auto mesh = read_mesh(file);
+    ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+    EXPECT_NEAR(double(mesh->vertex_count()), asked[level], 0.02 * asked[level]);
+    EXPECT_EQ(int(mesh->vertex_count()), l["output"]["vertices"]);
+    auto saliency = read_saliency(file);
+    ASSERT_TRUE(saliency.ok());
+    EXPECT_EQ(saliency->size(), mesh->vertex_count());
+    int renders = 0;
+    for (const auto& s : l["stages"]) renders += s["name"] == "render";
+    EXPECT_EQ(renders, level == 0 ? 1 : 0) << "the snapshots are rendered once, for level 0";
+  }
+  EXPECT_FALSE(fs::exists(path("spot.ply")));
+}
+
 TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
   struct Case {
     std::string args;
@@ -211,6 +243,13 @@ TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
       {"local " + good + " -o " + path("o.xyz") + " -n 500", 3, ".xyz"},
       {"local " + good + " -o " + path("o.ply") + " -n 500 --views 7", 2, "views"},
       {"local " + good + " -o " + path("o.ply") + " -n 500 --renderer vulkan", 3, "vulkan"},
+      {"local " + good + " -o " + path("o.ply"), 3, "a target is required"},
+      {"local " + good + " -o " + path("o.ply") + " -n 500 --lod 300", 3, "not both"},
+      {"local " + good + " -o " + path("o.ply") + " --lod 500,0", 3, "--lod item 1 '0'"},
+      {"local " + good + " -o " + path("o.ply") + " --lod 500,abc", 3, "'abc' is not a number"},
+      {"local " + good + " -o " + path("o.ply") + " --lod 500,1.5", 3, "whole number"},
+      {"local " + good + " -o " + path("o.ply") + " --lod 1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1", 3, "at most 16"},
+      {"local " + good + " -o " + path("o.ply") + " --min-ssim 1.2", 3, "outside (0, 1)"},
   };
   for (const Case& c : cases) {
     CliRun r = run_cli(c.args);
