@@ -9,6 +9,7 @@
 #include "exit_codes.h"
 #include "grpc_errors.h"
 #include "io/mesh_io.h"
+#include "pipeline_flags.h"
 #include "stage_table.h"
 
 namespace vpr::cli {
@@ -58,6 +59,20 @@ double ms_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
 }
 
+// One level of a chain to OUT.lodN.EXT: the server's Draco bytes as they are,
+// or decoded and written with its field.
+Status write_level(const std::string& path, const JobOutcome::LevelPayload& l, const std::string& server) {
+  if (l.result_total == 0 || l.result.size() != l.result_total)
+    return internal_error("the server sent " + std::to_string(l.result.size()) + " of " +
+                          std::to_string(l.result_total) + " bytes of " + path);
+  VPR_ASSIGN_OR_RETURN(const MeshFormat format, format_from_path(path));
+  if (format == MeshFormat::kDraco) return write_bytes(path, l.result.data(), l.result.size());
+  auto mesh = parse_mesh(l.result.data(), l.result.size(), MeshFormat::kDraco);
+  if (!mesh.ok()) return Status(mesh.status().code(), "the result from " + server + ": " + mesh.status().message());
+  const bool field = !l.saliency.empty() && l.saliency.size() == mesh->vertex_count();
+  return write_mesh(path, *mesh, field ? l.saliency.data() : nullptr);
+}
+
 }  // namespace
 
 Status JobOutcome::add(const v1::JobEvent& e) {
@@ -71,11 +86,20 @@ Status JobOutcome::add(const v1::JobEvent& e) {
       queue_ms = e.started().queue_ms();
       break;
     case v1::JobEvent::kStage:
-      stages.push_back({e.stage().name(), e.stage().ms(), e.stage().device(), e.stage().note()});
+      stages.push_back({e.stage().name(), e.stage().ms(), e.stage().device(), e.stage().note(),
+                        e.stage().front_half() ? kFrontHalf : int(e.stage().level())});
       break;
     case v1::JobEvent::kResult:
+      if (e.result().level() != 0) {
+        LevelPayload& l = levels[e.result().level()];
+        return append_chunk("result", e.result(), e.result().data(), &l.result, &l.result_total);
+      }
       return append_chunk("result", e.result(), e.result().data(), &result, &result_total);
     case v1::JobEvent::kSaliency:
+      if (e.saliency().level() != 0) {
+        LevelPayload& l = levels[e.saliency().level()];
+        return append_floats("saliency", e.saliency(), &l.saliency, &l.saliency_total);
+      }
       return append_floats("saliency", e.saliency(), &saliency, &saliency_total);
     case v1::JobEvent::kInputSaliency:
       return append_floats("input_saliency", e.input_saliency(), &input_saliency, &input_saliency_total);
@@ -115,7 +139,19 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
   }
 
   const auto start = std::chrono::steady_clock::now();
-  const bool need_mesh = !out.output.empty() || (!out.field_out.empty() && !out.input_mesh);
+  // A chain: every level to its own file (level 0's payload is o.result).
+  const bool chain = o.summary.levels_size() > 1;
+  if (chain && !out.output.empty()) {
+    JobOutcome::LevelPayload first{o.result, o.result_total, o.saliency, o.saliency_total};
+    for (const auto& level : o.summary.levels()) {
+      const auto it = o.levels.find(level.level());
+      if (level.level() != 0 && it == o.levels.end())
+        return fail(internal_error("the server sent no mesh for level " + std::to_string(level.level())));
+      const std::string path = level_path(out.output, level.level());
+      if (Status s = write_level(path, level.level() == 0 ? first : it->second, server); !s.ok()) return fail(s);
+    }
+  }
+  const bool need_mesh = (!chain && !out.output.empty()) || (!out.field_out.empty() && !out.input_mesh);
   if (need_mesh && o.result_total == 0)
     return fail(not_found("job " + o.job_id + " was submitted without return_mesh: there is no result to write"));
   if (need_mesh && o.result.size() != o.result_total)
@@ -135,7 +171,7 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
     return o.saliency.size() == m.vertex_count() && !o.saliency.empty() ? o.saliency.data() : nullptr;
   };
 
-  if (!out.output.empty()) {
+  if (!chain && !out.output.empty()) {
     auto format = format_from_path(out.output);
     if (!format.ok()) return fail(format.status());
     if (*format == MeshFormat::kDraco) {
@@ -194,10 +230,34 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
     j["run_ms"] = o.summary.run_ms();
     j["server_total_ms"] = o.summary.total_ms();
     j["result_bytes"] = o.summary.result_bytes();
+    if (chain) {
+      nlohmann::json levels = nlohmann::json::array();
+      for (const auto& l : o.summary.levels()) {
+        nlohmann::json level = {{"level", l.level()},
+                                {"target_vertices", l.target_vertices()},
+                                {"output", {{"vertices", l.output_vertices()}, {"faces", l.output_faces()}}},
+                                {"result_bytes", l.result_bytes()},
+                                {"ms", l.ms()}};
+        if (!out.output.empty()) level["output_file"] = level_path(out.output, l.level());
+        if (l.min_ssim() > 0)
+          level["visual_target"] = {{"min_ssim", l.min_ssim()}, {"ssim", l.ssim()}, {"tries", l.tries()}};
+        levels.push_back(level);
+      }
+      j["levels"] = levels;
+    }
     std::printf("%s\n", j.dump(2).c_str());
   } else {
     std::printf("job %s on %s (%s)\n", o.job_id.c_str(), o.worker.c_str(), o.device.c_str());
     std::printf("%s", format_stage_table(result, summary).c_str());
+    for (const auto& l : o.summary.levels()) {
+      std::printf("level %u: %u vertices, %u faces (target %u", l.level(), l.output_vertices(), l.output_faces(),
+                  l.target_vertices());
+      if (l.min_ssim() > 0)
+        std::printf(", SSIM %.4f for a bound of %.4f after %u tries", l.ssim(), l.min_ssim(), l.tries());
+      std::printf(") after %.0f ms", l.ms());
+      if (chain && !out.output.empty()) std::printf(" -> %s", level_path(out.output, l.level()).c_str());
+      std::printf("\n");
+    }
   }
   return kExitOk;
 }

@@ -6,6 +6,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,15 @@ struct JobOutcome {
   uint64_t result_total = 0;
   std::vector<float> saliency;  // one value per output vertex
   uint64_t saliency_total = 0;
+  // A chain's levels after the first (JobSpec.levels): their meshes and
+  // fields by level; level 0's are `result` and `saliency` above.
+  struct LevelPayload {
+    std::vector<uint8_t> result;
+    uint64_t result_total = 0;
+    std::vector<float> saliency;
+    uint64_t saliency_total = 0;
+  };
+  std::map<uint32_t, LevelPayload> levels;
   std::vector<float> input_saliency;  // one value per input vertex (when asked for)
   uint64_t input_saliency_total = 0;
   enum class End { kNone, kCompleted, kFailed, kCancelled } end = End::kNone;
@@ -37,7 +47,7 @@ struct JobOutcome {
 
 // Where a finished job's payloads go; empty paths are skipped.
 struct JobOutputs {
-  std::string output;  // .drc (the server's bytes as they are), .ply or .obj
+  std::string output;  // .drc (the server's bytes as they are), .ply or .obj; a chain: OUT.lodN.EXT per level
   // The saliency field: with input_mesh (the input as parsed locally) that
   // mesh colored by the job's input_saliency, as `vpremesh local --field-out`
   // writes it; without (watch: no input there) the result colored by its field.

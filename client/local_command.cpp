@@ -30,16 +30,6 @@ double ms_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
 }
 
-// out.ply -> out.lod0.ply, out.lod1.ply, ... (the extension keeps the format).
-std::string level_path(const std::string& output, size_t level) {
-  const size_t slash = output.find_last_of('/');
-  const size_t dot = output.find_last_of('.');
-  const bool has_ext = dot != std::string::npos && (slash == std::string::npos || dot > slash);
-  const std::string stem = has_ext ? output.substr(0, dot) : output;
-  const std::string ext = has_ext ? output.substr(dot) : "";
-  return stem + ".lod" + std::to_string(level) + ext;
-}
-
 int fail(const Status& s) {
   std::fprintf(stderr, "vpremesh: error: %s\n", s.to_string().c_str());
   return exit_code_for(s);

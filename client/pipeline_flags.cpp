@@ -83,6 +83,15 @@ Status apply_pipeline_flags(const PipelineFlagValues& values, PipelineOptions* o
   return Status::Ok();
 }
 
+std::string level_path(const std::string& output, size_t level) {
+  const size_t slash = output.find_last_of('/');
+  const size_t dot = output.find_last_of('.');
+  const bool has_ext = dot != std::string::npos && (slash == std::string::npos || dot > slash);
+  const std::string stem = has_ext ? output.substr(0, dot) : output;
+  const std::string ext = has_ext ? output.substr(dot) : "";
+  return stem + ".lod" + std::to_string(level) + ext;
+}
+
 StatusOr<std::vector<LevelTarget>> parse_level_list(const std::string& list) {
   std::vector<LevelTarget> levels;
   size_t start = 0;

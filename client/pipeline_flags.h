@@ -35,6 +35,10 @@ Status apply_pipeline_flags(const PipelineFlagValues& values, PipelineOptions* o
 // for none of them, -n with the others, or a malformed list (check_levels).
 StatusOr<std::vector<LevelTarget>> levels_from_flags(const PipelineFlagValues& values, const PipelineOptions& o);
 
+// Where level N of a chain is written: out.ply -> out.lod0.ply, out.lod1.ply,
+// ... (the extension keeps the format).
+std::string level_path(const std::string& output, size_t level);
+
 // "20000,5000,0.1" -> levels; INVALID_ARGUMENT naming the bad item.
 StatusOr<std::vector<LevelTarget>> parse_level_list(const std::string& list);
 

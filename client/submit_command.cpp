@@ -67,8 +67,9 @@ StatusOr<std::vector<uint8_t>> read_bytes(const std::string& path) {
 StatusOr<v1::JobSpec> build_spec(SubmitArgs& a, uint64_t upload_bytes) {
   PipelineOptions& o = a.options;
   VPR_RETURN_IF_ERROR(apply_pipeline_flags(a.flags, &o));
-  VPR_RETURN_IF_ERROR(validate_options(o));
-  VPR_ASSIGN_OR_RETURN(v1::JobSpec spec, service::make_job_spec(o));
+  VPR_ASSIGN_OR_RETURN(const std::vector<LevelTarget> levels, levels_from_flags(a.flags, o));
+  if (o.target_vertices != 0) VPR_RETURN_IF_ERROR(validate_options(o));
+  VPR_ASSIGN_OR_RETURN(v1::JobSpec spec, service::make_job_spec(o, levels));
   spec.set_mesh_size_bytes(upload_bytes);
   spec.set_label(a.label.empty() ? std::filesystem::path(a.input).filename().string() : a.label);
   spec.set_priority(a.priority);

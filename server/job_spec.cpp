@@ -114,8 +114,8 @@ Status pipeline_options_from_proto(const v1::PipelineOptions& p, PipelineOptions
   VPR_RETURN_IF_ERROR(float_field("options.awlop_h_factor", p.awlop_h_factor(), 0, true, 100, false, d.awlop.h_factor,
                                   &o.awlop.h_factor));
   float drop = 0;
-  VPR_RETURN_IF_ERROR(float_field("options.drop_parts_smaller_than", p.drop_parts_smaller_than(), 0, true, 1, false,
-                                  0.0f, &drop));
+  VPR_RETURN_IF_ERROR(
+      float_field("options.drop_parts_smaller_than", p.drop_parts_smaller_than(), 0, true, 1, false, 0.0f, &drop));
   o.drop_parts_smaller_than = drop;
   if (p.density().empty()) {
     o.density = d.density;
@@ -128,7 +128,20 @@ Status pipeline_options_from_proto(const v1::PipelineOptions& p, PipelineOptions
 }
 
 Status job_options_from_spec(const v1::JobSpec& spec, JobOptions* out) {
-  if (spec.target_vertices() < kMinTargetVertices || spec.target_vertices() > kMaxTargetVertices)
+  std::vector<LevelTarget> levels;
+  for (const v1::LevelTarget& l : spec.levels()) {
+    LevelTarget level;
+    level.vertices = l.vertices();
+    level.fraction = l.fraction();
+    level.min_ssim = l.min_ssim();
+    levels.push_back(level);
+  }
+  if (!levels.empty()) {
+    if (spec.target_vertices() != 0)
+      return invalid_argument("target_vertices is " + str(spec.target_vertices()) + " and levels has " +
+                              str(levels.size()) + " entries; give one or the other");
+    if (Status s = check_levels(levels); !s.ok()) return invalid_argument("levels: " + s.message());
+  } else if (spec.target_vertices() < kMinTargetVertices || spec.target_vertices() > kMaxTargetVertices)
     return invalid_argument("target_vertices is " + str(spec.target_vertices()) + "; it must be in [" +
                             str(kMinTargetVertices) + ", " + str(kMaxTargetVertices) + "]");
   if (spec.priority() < -10 || spec.priority() > 10)
@@ -148,7 +161,10 @@ Status job_options_from_spec(const v1::JobSpec& spec, JobOptions* out) {
   VPR_RETURN_IF_ERROR(pipeline_options_from_proto(spec.options(), &o.pipeline));
   o.pipeline.keep_saliency_points = spec.return_saliency_points();
   // Backstop: the pipeline's own checks (its messages do not name proto fields).
-  if (Status s = validate_options(o.pipeline); !s.ok()) return invalid_argument("options: " + s.message());
+  PipelineOptions checked = o.pipeline;
+  if (!levels.empty()) checked.target_vertices = kMinTargetVertices;  // each level's was checked above
+  if (Status s = validate_options(checked); !s.ok()) return invalid_argument("options: " + s.message());
+  o.levels = std::move(levels);
   o.priority = spec.priority();
   o.result_quantization_bits =
       spec.result_quantization_bits() == 0 ? kDefaultResultQuantizationBits : int(spec.result_quantization_bits());
@@ -203,9 +219,19 @@ StatusOr<v1::PipelineOptions> pipeline_options_to_proto(const PipelineOptions& o
   return p;
 }
 
-StatusOr<v1::JobSpec> make_job_spec(const PipelineOptions& options) {
+StatusOr<v1::JobSpec> make_job_spec(const PipelineOptions& options, const std::vector<LevelTarget>& levels) {
   v1::JobSpec spec;
-  spec.set_target_vertices(options.target_vertices);
+  const bool chain = levels.size() > 1 || (levels.size() == 1 && levels[0].vertices == 0);
+  if (chain) {
+    for (const LevelTarget& l : levels) {
+      v1::LevelTarget* p = spec.add_levels();
+      p->set_vertices(l.vertices);
+      p->set_fraction(l.fraction);
+      p->set_min_ssim(l.min_ssim);
+    }
+  } else {
+    spec.set_target_vertices(levels.empty() ? options.target_vertices : levels[0].vertices);
+  }
   VPR_ASSIGN_OR_RETURN(*spec.mutable_options(), pipeline_options_to_proto(options));
   JobOptions check;
   VPR_RETURN_IF_ERROR(job_options_from_spec(spec, &check));

@@ -12,10 +12,11 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
+#include "core/status.h"
 #include "io/mesh_io.h"
 #include "pipeline/pipeline.h"
-#include "core/status.h"
 #include "vpremesh/v1/remesh.pb.h"
 
 namespace vpr::service {
@@ -28,7 +29,9 @@ namespace v1 = ::vpremesh::v1;
 inline constexpr int kDefaultResultQuantizationBits = 14;
 
 // The payload switches that default to yes (remesh.proto: unset = yes).
-inline bool returns_mesh(const v1::JobSpec& spec) { return !spec.has_return_mesh() || spec.return_mesh(); }
+inline bool returns_mesh(const v1::JobSpec& spec) {
+  return !spec.has_return_mesh() || spec.return_mesh();
+}
 inline bool returns_saliency(const v1::JobSpec& spec) {
   return !spec.has_return_saliency() || spec.return_saliency();
 }
@@ -42,6 +45,8 @@ struct JobOptions {
   int result_quantization_bits = kDefaultResultQuantizationBits;  // [1, 30]
   v1::DevicePreference device = v1::DEVICE_ANY;
   MeshFormat input_format = MeshFormat::kDraco;  // kDraco or kGltf (spec.input_format)
+  // spec.levels (a chain); empty: one level, pipeline.target_vertices.
+  std::vector<LevelTarget> levels;
 };
 
 // Checks every field and fills *out. INVALID_ARGUMENT names the field (as in
@@ -57,7 +62,8 @@ Status pipeline_options_from_proto(const v1::PipelineOptions& proto, PipelineOpt
 StatusOr<v1::PipelineOptions> pipeline_options_to_proto(const PipelineOptions& options);
 
 // A spec for `options.target_vertices` with these options (the client's
-// helper; priority, label and return_* flags are the caller's to set).
-StatusOr<v1::JobSpec> make_job_spec(const PipelineOptions& options);
+// helper; priority, label and return_* flags are the caller's to set);
+// with more than one level, or a visual one, a chain (target_vertices 0).
+StatusOr<v1::JobSpec> make_job_spec(const PipelineOptions& options, const std::vector<LevelTarget>& levels = {});
 
 }  // namespace vpr::service

@@ -32,7 +32,14 @@ class Upload {
       const v1::JobSpec& spec = request.spec();
       JobOptions options;
       if (Status s = job_options_from_spec(spec, &options); !s.ok()) return to_grpc(s);
-      if (Status s = check_target(limits, spec.target_vertices()); !s.ok()) return to_grpc(s);
+      if (options.levels.empty()) {
+        if (Status s = check_target(limits, spec.target_vertices()); !s.ok()) return to_grpc(s);
+      }
+      for (size_t i = 0; i < options.levels.size(); ++i)
+        if (options.levels[i].vertices != 0) {
+          if (Status s = check_target(limits, options.levels[i].vertices); !s.ok())
+            return to_grpc(invalid_argument("levels[" + std::to_string(i) + "]: " + s.message()));
+        }
       if (spec.device() == v1::DEVICE_CUDA && !service_.config().has_cuda)
         return {grpc::StatusCode::FAILED_PRECONDITION,
                 "device is DEVICE_CUDA but this server has no CUDA device (it runs --device cpu or found no GPU)"};

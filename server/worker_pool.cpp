@@ -4,9 +4,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <atomic>
 #include <cctype>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <new>
@@ -46,13 +46,15 @@ v1::JobEvent end_event(JobQueue& queue, const std::string& id, const Status& s) 
 
 // Streams a float array as FloatChunk events of at most 1 MiB each.
 template <class Setter>
-uint64_t publish_floats(JobQueue& queue, const std::string& id, const std::vector<float>& values, Setter chunk_of) {
+uint64_t publish_floats(JobQueue& queue, const std::string& id, const std::vector<float>& values, Setter chunk_of,
+                        uint32_t level = 0) {
   for (size_t offset = 0; offset < values.size(); offset += kFloatsPerChunk) {
     const size_t n = std::min(kFloatsPerChunk, values.size() - offset);
     v1::JobEvent e;
     v1::FloatChunk* c = chunk_of(&e);
     c->set_offset(offset);
     c->set_total(values.size());
+    c->set_level(level);
     c->mutable_values()->Add(values.begin() + offset, values.begin() + offset + n);
     queue.publish(id, std::move(e));
   }
@@ -158,6 +160,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
   po.keep_going = [&]() { return !stopped(); };
   po.on_stage_begin = [&](const char* name) { step(name); };
   // Stage events go out live, as each stage ends.
+  const bool chain = !options.levels.empty();
   po.on_stage = [&](const StageTiming& t) {
     v1::JobEvent e;
     v1::Stage* st = e.mutable_stage();
@@ -165,6 +168,10 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
     st->set_ms(t.ms);
     st->set_device(t.device);
     st->set_note(t.note);
+    if (chain) {  // a one-target job's events stay as they were
+      st->set_level(t.level == kFrontHalf ? 0 : uint32_t(t.level));
+      st->set_front_half(t.level == kFrontHalf);
+    }
     queue.publish(id, std::move(e));
     if (ctx.metrics) ctx.metrics->stage_seconds(t.name).observe(t.ms / 1000.0);
   };
@@ -179,7 +186,66 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
 
   if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
   v1::Completed summary;
-  PipelineResult result;
+  uint64_t bytes_out = 0;
+  // Each level's payloads go out as soon as it is done (a chain's level 0
+  // can be used while the next ones run); level 0 also fills the summary.
+  auto publish_level = [&](PipelineResult&& result) -> Status {
+    if (stopped()) return Status(StatusCode::kCancelled, "cancelled");
+    const uint32_t level = uint32_t(result.level);
+    v1::LevelSummary* ls = chain ? summary.add_levels() : nullptr;
+    if (returns_mesh(job.spec)) {
+      // The same encoder settings as `vpremesh local -o out.drc` (saliency as
+      // the generic attribute "saliency"), so both give the same file.
+      step("encode");
+      DracoOptions draco;
+      draco.position_bits = options.result_quantization_bits;
+      VPR_ASSIGN_OR_RETURN(const std::vector<uint8_t> bytes, encode_draco(result.mesh, result.saliency.data(), draco));
+      if (level == 0) summary.set_result_bytes(bytes.size());
+      if (ls) ls->set_result_bytes(bytes.size());
+      for (size_t offset = 0; offset < bytes.size(); offset += kMaxChunkBytes) {
+        const size_t n = std::min(kMaxChunkBytes, bytes.size() - offset);
+        v1::JobEvent e;
+        v1::BytesChunk* c = e.mutable_result();
+        c->set_offset(offset);
+        c->set_total(bytes.size());
+        c->set_data(bytes.data() + offset, n);
+        c->set_level(level);
+        queue.publish(id, std::move(e));
+      }
+      bytes_out += bytes.size();
+    }
+    step("results");
+    if (returns_saliency(job.spec))
+      bytes_out += publish_floats(
+          queue, id, result.saliency, [](v1::JobEvent* e) { return e->mutable_saliency(); }, level);
+    if (ls) {
+      ls->set_level(level);
+      ls->set_target_vertices(result.target);
+      ls->set_output_vertices(uint32_t(result.mesh.vertex_count()));
+      ls->set_output_faces(uint32_t(result.mesh.face_count()));
+      ls->set_min_ssim(result.search.min_ssim);
+      ls->set_ssim(result.search.ssim);
+      ls->set_tries(uint32_t(result.search.tries));
+      ls->set_ms(ms_since(run_start));
+    }
+    if (level != 0) return Status::Ok();
+    if (job.spec.return_saliency_points())
+      bytes_out += publish_floats(queue, id, result.saliency_point_positions,
+                                  [](v1::JobEvent* e) { return e->mutable_saliency_points(); });
+    if (job.spec.return_input_saliency())
+      bytes_out += publish_floats(queue, id, result.input_importance,
+                                  [](v1::JobEvent* e) { return e->mutable_input_saliency(); });
+    if (debug_dir) bytes_out += publish_debug_images(queue, id, debug_dir->path());
+    debug_dir.reset();  // gone before `completed` (on the other paths, as the function returns)
+    summary.set_output_vertices(uint32_t(result.mesh.vertex_count()));
+    summary.set_output_faces(uint32_t(result.mesh.face_count()));
+    summary.set_saliency_points(result.saliency_points);
+    summary.set_ignored_vertices(uint32_t(result.ignored_vertices));
+    summary.set_dropped_parts(uint32_t(result.dropped_parts));
+    summary.set_parts_below_minimum(uint32_t(result.cvt.parts_below_minimum));
+    summary.set_renderer(result.renderer);
+    return Status::Ok();
+  };
   {
     // The upload is freed as soon as it is decoded, the input mesh when the
     // pipeline returns.
@@ -191,56 +257,23 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
     summary.set_input_vertices(uint32_t(mesh->vertex_count()));
     summary.set_input_faces(uint32_t(mesh->face_count()));
     if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
-    auto run = run_pipeline(*mesh, po);
-    if (!run.ok()) return queue.publish(id, end_event(queue, id, run.status()));
-    result = std::move(run).value();
+    std::vector<LevelTarget> levels = options.levels;
+    if (levels.empty()) {
+      levels.emplace_back();
+      levels[0].vertices = po.target_vertices;
+    }
+    Status run = run_pipeline_levels(*mesh, po, levels, publish_level);
+    if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
+    if (!run.ok()) {
+      // An encoder failure is the job's failure, like the pipeline's own.
+      return queue.publish(id, end_event(queue, id, run));
+    }
   }
   if (stopped()) return queue.publish(id, end_event(queue, id, Status()));
 
-  uint64_t bytes_out = 0;
-  if (returns_mesh(job.spec)) {
-    // The same encoder settings as `vpremesh local -o out.drc` (saliency as
-    // the generic attribute "saliency"), so both give the same file.
-    step("encode");
-    DracoOptions draco;
-    draco.position_bits = options.result_quantization_bits;
-    auto encoded = encode_draco(result.mesh, result.saliency.data(), draco);
-    if (!encoded.ok()) return queue.publish(id, failed_event(encoded.status()));
-    const std::vector<uint8_t>& bytes = *encoded;
-    summary.set_result_bytes(bytes.size());
-    for (size_t offset = 0; offset < bytes.size(); offset += kMaxChunkBytes) {
-      const size_t n = std::min(kMaxChunkBytes, bytes.size() - offset);
-      v1::JobEvent e;
-      v1::BytesChunk* c = e.mutable_result();
-      c->set_offset(offset);
-      c->set_total(bytes.size());
-      c->set_data(bytes.data() + offset, n);
-      queue.publish(id, std::move(e));
-    }
-    bytes_out += bytes.size();
-  }
-  step("results");
-  if (returns_saliency(job.spec))
-    bytes_out += publish_floats(queue, id, result.saliency, [](v1::JobEvent* e) { return e->mutable_saliency(); });
-  if (job.spec.return_saliency_points())
-    bytes_out += publish_floats(queue, id, result.saliency_point_positions,
-                                [](v1::JobEvent* e) { return e->mutable_saliency_points(); });
-  if (job.spec.return_input_saliency())
-    bytes_out +=
-        publish_floats(queue, id, result.input_importance, [](v1::JobEvent* e) { return e->mutable_input_saliency(); });
-  if (debug_dir) bytes_out += publish_debug_images(queue, id, debug_dir->path());
-  debug_dir.reset();  // gone before `completed` (on the other paths, as the function returns)
-
-  summary.set_output_vertices(uint32_t(result.mesh.vertex_count()));
-  summary.set_output_faces(uint32_t(result.mesh.face_count()));
-  summary.set_saliency_points(result.saliency_points);
-  summary.set_ignored_vertices(uint32_t(result.ignored_vertices));
-  summary.set_dropped_parts(uint32_t(result.dropped_parts));
-  summary.set_parts_below_minimum(uint32_t(result.cvt.parts_below_minimum));
   summary.set_queue_ms(job.queue_ms);
   summary.set_run_ms(ms_since(run_start));
   summary.set_total_ms(job.queue_ms + summary.run_ms());
-  summary.set_renderer(result.renderer);
   if (ctx.metrics) {
     ctx.metrics->bytes_out.inc(double(bytes_out));
     ctx.metrics->job_seconds().observe(summary.total_ms() / 1000.0);

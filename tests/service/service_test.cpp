@@ -8,6 +8,7 @@
 #include <sys/socket.h>
 
 #include <future>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -350,7 +351,8 @@ TEST_F(ServiceTest, GltfBinaryUploads) {
   RemeshOutcome good = remesh(*stub, spec, *glb);
   ASSERT_TRUE(good.status.ok() && good.completed()) << good.status.error_message();
   EXPECT_EQ(good.last()->completed().input_vertices(), 642u);
-  auto result = parse_mesh(reinterpret_cast<const uint8_t*>(good.result.data()), good.result.size(), MeshFormat::kDraco);
+  auto result =
+      parse_mesh(reinterpret_cast<const uint8_t*>(good.result.data()), good.result.size(), MeshFormat::kDraco);
   ASSERT_TRUE(result.ok()) << result.status().to_string();
   EXPECT_NEAR(double(result->vertex_count()), 300.0, 6.0);
   EXPECT_EQ(good.saliency.size(), result->vertex_count());
@@ -382,6 +384,75 @@ TEST_F(ServiceTest, GltfBinaryUploads) {
 
   RemeshOutcome again = remesh(*stub, spec, *glb);
   EXPECT_TRUE(again.status.ok() && again.completed()) << again.status.error_message();
+}
+
+// A level-of-detail chain through the service (issue 20): three meshes with
+// the asked counts, streamed level by level, each with its field and each
+// equal to `vpremesh submit --lod`'s files; the front-half stages run once.
+// A bad level list is INVALID_ARGUMENT before any event.
+TEST_F(ServiceTest, LevelsOfDetailStreamLevelByLevel) {
+  START_SERVER(server);
+  auto stub = make_stub(server->address());
+  const Mesh sphere = icosphere(4);  // 2,562 vertices
+  const std::vector<uint8_t> drc = lossless_draco(sphere);
+  v1::JobSpec spec = make_spec(0, drc.size());
+  for (const auto& [vertices, fraction] : {std::pair{1200u, 0.0}, std::pair{0u, 0.25}, std::pair{300u, 0.0}}) {
+    v1::LevelTarget* l = spec.add_levels();
+    l->set_vertices(vertices);
+    l->set_fraction(fraction);
+  }
+  RemeshOutcome out = remesh(*stub, spec, drc, [](const v1::JobEvent&) {});
+  ASSERT_TRUE(out.status.ok() && out.completed()) << out.status.error_message() << "\n" << server->log();
+  const uint32_t asked[3] = {1200, 641, 300};
+  std::map<uint32_t, std::string> meshes;
+  std::map<uint32_t, size_t> fields;
+  std::map<std::string, int> front_stages;
+  uint32_t last_level = 0;
+  for (const v1::JobEvent& e : out.events) {
+    uint32_t level = last_level;
+    if (e.has_result()) level = e.result().level(), meshes[level] += e.result().data();
+    if (e.has_saliency()) level = e.saliency().level(), fields[level] += size_t(e.saliency().values_size());
+    if (e.has_stage() && e.stage().front_half()) ++front_stages[e.stage().name()];
+    if (e.has_stage() && !e.stage().front_half()) level = e.stage().level();
+    EXPECT_GE(level, last_level) << "levels arrive in order";
+    last_level = level;
+  }
+  for (const char* name : {"views", "render", "image_saliency", "saliency_field"})
+    EXPECT_EQ(front_stages[name], 1) << name;
+  const v1::Completed& done = out.last()->completed();
+  ASSERT_EQ(done.levels_size(), 3);
+  for (uint32_t i = 0; i < 3; ++i) {
+    auto mesh = parse_mesh(reinterpret_cast<const uint8_t*>(meshes[i].data()), meshes[i].size(), MeshFormat::kDraco);
+    ASSERT_TRUE(mesh.ok()) << "level " << i << ": " << mesh.status().to_string();
+    EXPECT_NEAR(double(mesh->vertex_count()), asked[i], 0.02 * asked[i]) << "level " << i;
+    EXPECT_EQ(fields[i], mesh->vertex_count()) << "level " << i;
+    EXPECT_EQ(done.levels(int(i)).target_vertices(), asked[i]);
+    EXPECT_EQ(done.levels(int(i)).output_vertices(), mesh->vertex_count());
+    EXPECT_EQ(done.levels(int(i)).result_bytes(), meshes[i].size());
+  }
+
+  // The CLI writes one file per level, the same meshes.
+  write_file(path("sphere.drc"), drc);
+  CliRun cli = run_cli("submit " + path("sphere.drc") + " --lod 1200,0.25,300 -o " + path("out.drc") +
+                       " --quantization-bits 0 --server " + server->address());
+  ASSERT_EQ(cli.code, 0) << cli.err << "\n" << server->log();
+  for (uint32_t i = 0; i < 3; ++i) {
+    std::ifstream f(path("out.lod" + std::to_string(i) + ".drc"), std::ios::binary);
+    EXPECT_TRUE(std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()) == meshes[i])
+        << "level " << i;
+  }
+
+  v1::JobSpec bad = make_spec(0, drc.size());
+  bad.add_levels()->set_fraction(1.5);
+  RemeshOutcome refused = remesh(*stub, bad, drc, [](const v1::JobEvent&) {});
+  EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(refused.status.error_message().find("levels: level 0: fraction 1.5"), std::string::npos)
+      << refused.status.error_message();
+  EXPECT_TRUE(refused.events.empty());
+  v1::JobSpec both = make_spec(500, drc.size());
+  both.add_levels()->set_vertices(300);
+  EXPECT_EQ(remesh(*stub, both, drc, [](const v1::JobEvent&) {}).status.error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
 }
 
 // --max-queue 1 --workers 1: one job runs, one waits, the next is refused.
