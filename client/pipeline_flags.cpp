@@ -15,6 +15,9 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--min-ssim", values.min_ssim,
                   "A level with a visual target: the fewest vertices whose output keeps this mean SSIM against the "
                   "input over the job's views (after any --lod levels)");
+  cmd->add_option("--screen-px", values.screen_px,
+                  "With --min-ssim (default 0.97): the model's size on screen in pixels; the level keeps the bound "
+                  "when seen at that size");
   cmd->add_option("--views", o.views.count, "Number of views: 6 (axes) or 14 (axes + diagonals)")
       ->check(CLI::IsMember({6, 14}))
       ->capture_default_str();
@@ -121,10 +124,14 @@ StatusOr<std::vector<LevelTarget>> parse_level_list(const std::string& list) {
   return levels;
 }
 
+// --screen-px alone: the example bound, a difference few people see.
+constexpr double kDefaultMinSsim = 0.97;
+
 StatusOr<std::vector<LevelTarget>> levels_from_flags(const PipelineFlagValues& values, const PipelineOptions& o) {
-  const bool chain = !values.lod.empty() || values.min_ssim != 0;
-  if (o.target_vertices != 0 && chain) return invalid_argument("give -n or --lod/--min-ssim, not both");
-  if (o.target_vertices == 0 && !chain) return invalid_argument("a target is required: -n, --lod or --min-ssim");
+  const bool chain = !values.lod.empty() || values.min_ssim != 0 || values.screen_px != 0;
+  if (o.target_vertices != 0 && chain) return invalid_argument("give -n or --lod/--min-ssim/--screen-px, not both");
+  if (o.target_vertices == 0 && !chain)
+    return invalid_argument("a target is required: -n, --lod, --min-ssim or --screen-px");
   if (!chain) {
     LevelTarget one;
     one.vertices = o.target_vertices;
@@ -134,9 +141,10 @@ StatusOr<std::vector<LevelTarget>> levels_from_flags(const PipelineFlagValues& v
   if (!values.lod.empty()) {
     VPR_ASSIGN_OR_RETURN(levels, parse_level_list(values.lod));
   }
-  if (values.min_ssim != 0) {
+  if (values.min_ssim != 0 || values.screen_px != 0) {
     LevelTarget visual;
-    visual.min_ssim = values.min_ssim;
+    visual.min_ssim = values.min_ssim != 0 ? values.min_ssim : kDefaultMinSsim;
+    visual.screen_px = values.screen_px;
     levels.push_back(visual);
   }
   VPR_RETURN_IF_ERROR(check_levels(levels));

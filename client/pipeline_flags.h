@@ -20,6 +20,7 @@ struct PipelineFlagValues {
   // Levels of detail (issue 20): --lod COUNT|FRACTION,... and --min-ssim S.
   std::string lod;
   double min_ssim = 0;
+  uint32_t screen_px = 0;
 };
 
 // -n/--target-vertices, views, seed, rotation and the paper's constants

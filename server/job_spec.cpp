@@ -134,6 +134,7 @@ Status job_options_from_spec(const v1::JobSpec& spec, JobOptions* out) {
     level.vertices = l.vertices();
     level.fraction = l.fraction();
     level.min_ssim = l.min_ssim();
+    level.screen_px = l.screen_px();
     levels.push_back(level);
   }
   if (!levels.empty()) {
@@ -228,6 +229,7 @@ StatusOr<v1::JobSpec> make_job_spec(const PipelineOptions& options, const std::v
       p->set_vertices(l.vertices);
       p->set_fraction(l.fraction);
       p->set_min_ssim(l.min_ssim);
+      p->set_screen_px(l.screen_px);
     }
   } else {
     spec.set_target_vertices(levels.empty() ? options.target_vertices : levels[0].vertices);

@@ -152,5 +152,30 @@ TEST(LodChain, VisualTargetFindsTheFewestVerticesThatKeepTheBound) {
   }
 }
 
+// A screen-size target judges the views at the model's size on screen: seen
+// at 64 px the same bound needs fewer vertices than at 256 px, and each
+// level reaches its bound.
+TEST(LodChain, AScreenSizeTargetNeedsFewerVerticesWhenSeenSmaller) {
+  const Mesh mesh = bumpy_sphere();
+  LevelTarget large, small;
+  large.min_ssim = small.min_ssim = 0.95;
+  large.screen_px = 256;
+  small.screen_px = 64;
+  const std::vector<PipelineResult> found = run_levels(mesh, small_views(), {large, small});
+  ASSERT_EQ(found.size(), 2u);
+  EXPECT_GE(found[0].search.ssim, 0.95);
+  EXPECT_GE(found[1].search.ssim, 0.95);
+  EXPECT_LT(found[1].target, found[0].target);
+  EXPECT_EQ(found[1].mesh.vertex_count(), size_t(found[1].target));
+
+  LevelTarget alone;
+  alone.screen_px = 128;  // no bound to keep at that size
+  Status s = run_pipeline_levels(mesh, PipelineOptions{}, {alone}, [](PipelineResult&&) { return Status::Ok(); });
+  EXPECT_NE(s.message().find("needs a minimum SSIM"), std::string::npos) << s.to_string();
+  small.screen_px = 10;
+  s = run_pipeline_levels(mesh, PipelineOptions{}, {small}, [](PipelineResult&&) { return Status::Ok(); });
+  EXPECT_NE(s.message().find("[64, 4096]"), std::string::npos) << s.to_string();
+}
+
 }  // namespace
 }  // namespace vpr

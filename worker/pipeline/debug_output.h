@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "saliency/image_saliency.h"
-#include "render/snapshot.h"
 #include "core/status.h"
+#include "render/snapshot.h"
 #include "render/views.h"
+#include "saliency/image_saliency.h"
 
 namespace vpr {
 

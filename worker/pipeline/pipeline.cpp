@@ -638,10 +638,11 @@ PipelineResult level_result(const FrontHalf& front, int level, uint32_t target) 
 // resolution); the level is the smallest count that reached the bound (or the
 // largest tried, when none did, which its note says).
 StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptions& options, int level,
-                                           double min_ssim) {
+                                           const LevelTarget& target) {
+  const double min_ssim = target.min_ssim;
   VisualSimilarityOptions judge;
   judge.views = options.views.count;
-  judge.resolution = options.views.resolution;
+  judge.resolution = target.screen_px > 0 ? int(target.screen_px) : options.views.resolution;
   VPR_ASSIGN_OR_RETURN(const VisualReference reference, VisualReference::create(front.input, front.renderer, judge));
   VisualTargetOptions search;
   search.min_ssim = min_ssim;
@@ -692,7 +693,7 @@ Status check_levels(const std::vector<LevelTarget>& levels) {
   for (size_t i = 0; i < levels.size(); ++i) {
     const LevelTarget& l = levels[i];
     const std::string name = "level " + std::to_string(i) + ": ";
-    const int set = (l.vertices != 0) + (l.fraction != 0) + (l.min_ssim != 0);
+    const int set = (l.vertices != 0) + (l.fraction != 0) + (l.min_ssim != 0 || l.screen_px != 0);
     if (set == 0) return invalid_argument(name + "no target (a vertex count, a fraction or a minimum SSIM; 0 is none)");
     if (set > 1)
       return invalid_argument(name + "give one of a vertex count, a fraction or a minimum SSIM, not several");
@@ -704,6 +705,11 @@ Status check_levels(const std::vector<LevelTarget>& levels) {
       return invalid_argument(name + "fraction " + std::to_string(l.fraction) + " of the input is outside (0, 1]");
     if (l.min_ssim != 0 && !(l.min_ssim > 0 && l.min_ssim < 1))
       return invalid_argument(name + "minimum SSIM " + std::to_string(l.min_ssim) + " is outside (0, 1)");
+    if (l.screen_px != 0 && l.min_ssim == 0)
+      return invalid_argument(name + "a screen size needs a minimum SSIM to keep at that size");
+    if (l.screen_px != 0 && (l.screen_px < 64 || l.screen_px > 4096))
+      return invalid_argument(name + "screen size of " + std::to_string(l.screen_px) +
+                              " px is outside the supported range [64, 4096]");
   }
   return Status::Ok();
 }
@@ -744,7 +750,7 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
     PipelineOptions level_options = options;
     PipelineResult result = level_result(front, int(i), counts[i]);
     if (levels[i].min_ssim > 0) {
-      VPR_ASSIGN_OR_RETURN(PipelineResult found, run_visual_target(front, options, int(i), levels[i].min_ssim));
+      VPR_ASSIGN_OR_RETURN(PipelineResult found, run_visual_target(front, options, int(i), levels[i]));
       found.stages.insert(found.stages.begin(), result.stages.begin(), result.stages.end());
       result = std::move(found);
     } else {

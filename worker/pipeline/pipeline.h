@@ -107,6 +107,10 @@ struct LevelTarget {
   uint32_t vertices = 0;
   double fraction = 0;  // (0, 1]
   double min_ssim = 0;  // (0, 1)
+  // With min_ssim: the size in pixels at which the model is seen (a screen-
+  // size target: the views are judged at this resolution, so a model seen
+  // small needs fewer vertices); 0 = the job's snapshot resolution. [64, 4096].
+  uint32_t screen_px = 0;
 };
 inline constexpr size_t kMaxLevels = 16;
 

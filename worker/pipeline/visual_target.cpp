@@ -28,7 +28,11 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     if (failed == o.highest) return true;  // nothing larger is allowed
     return passed > 0 && failed > 0 && double(passed) <= double(failed) * (1.0 + o.tolerance);
   };
-  uint32_t next = o.first > 0 ? o.first : uint32_t(std::lround(std::sqrt(double(o.lowest) * double(o.highest))));
+  // The first try is cheap and low: a back half costs about its count, so
+  // trying from below and stepping up by the model spends least.
+  uint32_t next = o.first > 0 ? o.first : std::max(o.lowest, o.highest / 64);
+  int stalled = 0;  // tries since the bracket last halved in log width
+  double width = std::log(double(o.highest)) - std::log(double(o.lowest)) + 1.0;
   while (int(out.tries.size()) < o.max_tries) {
     next = std::clamp(next, o.lowest, o.highest);
     VPR_ASSIGN_OR_RETURN(const double s, score(next));
@@ -39,6 +43,16 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
       failed = next;
     }
     if (done()) break;
+    const double lo = failed > 0 ? std::log(failed) : std::log(o.lowest) - 1e-9;
+    const double hi = passed > 0 ? std::log(passed) : std::log(o.highest) + 1e-9;
+    if (passed > 0 && failed > 0) {
+      if (hi - lo < 0.5 * width) {
+        width = hi - lo;
+        stalled = 0;
+      } else {
+        ++stalled;
+      }
+    }
 
     // The model through the two tries whose errors are nearest the goal.
     std::vector<VisualTry> near = out.tries;
@@ -46,29 +60,34 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
       const double da = std::fabs(error_of(a.ssim) - goal), db = std::fabs(error_of(b.ssim) - goal);
       return da != db ? da < db : a.count < b.count;
     });
-    double log_next;
     const VisualTry& a = near[0];
     const VisualTry* b = nullptr;
     for (size_t i = 1; i < near.size() && !b; ++i)
       if (near[i].count != a.count) b = &near[i];
     const double slope = b ? (error_of(b->ssim) - error_of(a.ssim)) / (std::log(b->count) - std::log(a.count)) : 0;
-    if (b && slope < -1e-3) {
-      log_next = std::log(a.count) + (goal - error_of(a.ssim)) / slope;
-    } else {
-      // One try, or a score that does not fall with the count here: the
-      // usual rate for surfaces, 1 - SSIM ~ n^-1/2.
-      log_next = std::log(a.count) - 2.0 * (goal - error_of(a.ssim));
+    // One try, or a score that does not fall with the count here: assume
+    // 1 - SSIM ~ 1/n, steeper than surfaces give (about n^-1/2 for a
+    // surface's error), so that the next try falls short rather than past
+    // the answer, where tries cost more.
+    const double rate = b && slope < -1e-3 ? slope : -1.0;
+    // Aim a little past the predicted count, so that the try near the answer
+    // passes and one more just inside the tolerance below it can close.
+    double log_next = std::log(a.count) + (goal - error_of(a.ssim)) / rate + 0.5 * o.tolerance;
+    // One-sided: at least a factor 2 and at most 16 past the known end;
+    // two-sided: the bracket's middle when the model points outside it or
+    // has not halved it in two tries.
+    if (failed == 0) log_next = std::clamp(log_next, hi - std::log(16.0), hi - std::log(2.0));
+    if (passed == 0) log_next = std::clamp(log_next, lo + std::log(2.0), lo + std::log(16.0));
+    // Close from above: the largest count that would end the search if it fails.
+    const double closing = hi - std::log1p(o.tolerance) + 1e-9;
+    if (passed > 0 && log_next >= closing) log_next = closing;
+    if (passed > 0 && failed > 0 && (stalled >= 2 || log_next <= lo)) {
+      log_next = 0.5 * (lo + hi);
+      stalled = 0;
     }
-    // Strictly inside the bracket, away from its ends (a tenth of its width
-    // in log n), and at most a factor of 4 past a one-sided bracket.
-    const double lo = failed > 0 ? std::log(failed) : std::log(o.lowest) - 1e-9;
-    const double hi = passed > 0 ? std::log(passed) : std::log(o.highest) + 1e-9;
-    const double margin = 0.1 * (hi - lo);
-    log_next = std::clamp(log_next, lo + margin, hi - margin);
-    if (failed == 0) log_next = std::max(log_next, std::log(passed) - std::log(4.0));
-    if (passed == 0) log_next = std::min(log_next, std::log(failed) + std::log(4.0));
     uint32_t n = uint32_t(std::lround(std::exp(log_next)));
-    // Rounding must still move inside the bracket.
+    if (passed > 0 && log_next >= closing - 1e-6) n = uint32_t(std::ceil(double(passed) / (1.0 + o.tolerance)));
+    // Strictly inside the bracket.
     if (failed > 0 && n <= failed) n = failed + 1;
     if (passed > 0 && n >= passed) n = passed - 1;
     next = n;

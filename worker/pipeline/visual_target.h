@@ -1,10 +1,13 @@
 // A visual target for a level of detail (issue 20): the fewest vertices whose
 // output, rendered from the job's own views, keeps the mean SSIM against the
 // input at or above a bound. Each try runs the back half at one count (the
-// front half is shared); the search brackets the count and picks the next try
-// from a model of the score against the count, 1 - SSIM ~ c n^-a (a line in
-// log n, log(1 - SSIM)), fitted to the two tries nearest the bound, kept
-// strictly inside the bracket, and stops when the bracket is within 2%.
+// front half is shared), which costs about in proportion to the count, so the
+// search starts low (1/64 of the range's top) and steps up by a model
+// of the score against the count, 1 - SSIM ~ c n^-a (a line in log n,
+// log(1 - SSIM)), fitted to the two tries nearest the bound and aimed 1% past
+// it; once a count passes, the next try is the largest that would close the
+// bracket within the tolerance (2%) if it fails. Tries stay strictly inside
+// the bracket; when the bracket has not halved in two tries, it bisects.
 #pragma once
 
 #include <cstdint>
