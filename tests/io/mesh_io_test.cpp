@@ -1016,7 +1016,7 @@ TEST(Colors, EveryWriterAndReaderKeepsThemExactly) {
   const std::vector<float> saliency = {0.0f, 0.125f, 0.25f, 0.5f, 0.75f, 1.0f, 0.3f, 0.99f};
   DracoOptions sequential;
   sequential.speed = 10;
-  for (const char* name : {"c.ply", "c.obj", "c.drc"}) {
+  for (const char* name : {"c.ply", "c.obj", "c.drc", "c.glb", "c.gltf"}) {
     for (const float* s : {static_cast<const float*>(nullptr), saliency.data()}) {
       const std::string path = dir.file(name);
       ASSERT_TRUE(write_mesh(path, cube, s).ok()) << name;
