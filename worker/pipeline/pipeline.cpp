@@ -1,8 +1,5 @@
 #include "pipeline.h"
 
-#include "core/mesh_parts.h"
-#include "surface/surface_refine.h"
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
@@ -14,8 +11,11 @@
 #include <string>
 #include <utility>
 
+#include "color_transfer.h"
+#include "core/mesh_parts.h"
 #include "debug_output.h"
 #include "job_device.h"
+#include "surface/surface_refine.h"
 #ifdef VPR_HAVE_CUDA
 #include "saliency/gpu_saliency.h"
 #endif
@@ -273,6 +273,16 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
   result.device = device->description();
   result.cpu_reason = device->cpu_reason();
   StageRunner stage(options, &result);
+  // The output back in the input's frame; colored from the input when it has
+  // colors or textures (color_transfer.h: the given mesh, every part of it).
+  auto finish = [&]() -> Status {
+    finish_output(norm, used, given.vertex_count(), options.field.min_importance, &result);
+    if (has_appearance(given))
+      VPR_RETURN_IF_ERROR(
+          stage.run("colors", cpu, [&] { return transfer_colors(given, result.mesh, &result.mesh.colors); }));
+    result.total_ms = ms_since(job_start);
+    return Status::Ok();
+  };
 
   // Stage 1: cameras and snapshots.
   std::vector<View> views;
@@ -512,8 +522,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
           },
           &note));
       result.back_half = std::string("surface CVT (") + density_mode_name(options.density) + " density)";
-      finish_output(norm, used, given.vertex_count(), options.field.min_importance, &result);
-      result.total_ms = ms_since(job_start);
+      VPR_RETURN_IF_ERROR(finish());
       return result;
     }
   }
@@ -571,8 +580,7 @@ StatusOr<PipelineResult> run_pipeline(const Mesh& given, const PipelineOptions& 
     return Status::Ok();
   }));
 
-  finish_output(norm, used, given.vertex_count(), options.field.min_importance, &result);
-  result.total_ms = ms_since(job_start);
+  VPR_RETURN_IF_ERROR(finish());
   return result;
 }
 
