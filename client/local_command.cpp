@@ -68,6 +68,7 @@ int run_local(LocalArgs& a) {
   summary.output_vertices = result->mesh.vertex_count();
   summary.output_faces = result->mesh.face_count();
   if (!a.field_out.empty()) {
+    mesh->colors.clear();  // the field shows as the saliency ramp, not behind the input's colors
     if (Status s = write_mesh(a.field_out, *mesh, result->input_importance.data()); !s.ok()) return fail(s);
   }
 

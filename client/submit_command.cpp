@@ -104,6 +104,7 @@ int run_submit(SubmitArgs& a) {
   Mesh input;  // as parsed here, for --field-out
   auto bytes = draco_upload(a.input, a.quantization_bits, a.field_out.empty() ? nullptr : &input);
   if (!bytes.ok()) return fail(bytes.status());
+  input.colors.clear();  // --field-out shows the field as the saliency ramp, not behind the input's colors
   if (!a.field_out.empty()) outputs.input_mesh = &input;
   auto spec = build_spec(a, bytes->size());
   if (!spec.ok()) return fail(spec.status());
