@@ -723,8 +723,9 @@ Status GltfReader::add_appearance(const BaseColor& look, size_t nv, const std::v
   const double* t = look.transform;
   for (size_t v = 0; v < nv; ++v) {
     const double u = slot == MeshTextures::kNone ? 0 : uv[2 * v], w = slot == MeshTextures::kNone ? 0 : uv[2 * v + 1];
-    uvs_.push_back(float(t[0] * u + t[1] * w + t[2]));
-    uvs_.push_back(float(t[3] * u + t[4] * w + t[5]));
+    // A transform may take coordinates beyond the float range (+-inf then; the sampler reads those as 0).
+    uvs_.push_back(to_float(t[0] * u + t[1] * w + t[2]));
+    uvs_.push_back(to_float(t[3] * u + t[4] * w + t[5]));
     vertex_texture_.push_back(slot);
   }
   return Status::Ok();
