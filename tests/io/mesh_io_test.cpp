@@ -889,16 +889,29 @@ std::string draco_point_cloud() {
   return std::string(buffer.data(), buffer.size());
 }
 
-// A triangle whose positions Draco stores with the given type (sequential,
-// unquantized, so the values arrive as they are).
-template <class T>
-std::string draco_triangle(draco::DataType type, const T (&p)[3][3]) {
+// One attribute of a Draco triangle: 3 values of `size` bytes each.
+struct DracoValues {
+  draco::GeometryAttribute::Type kind;
+  draco::DataType type;
+  int components;
+  bool normalized;
+  const void* values;
+  size_t size;
+};
+
+// A triangle of the given attributes, sequential and unquantized, so the
+// values arrive as they are.
+std::string draco_triangle_of(std::initializer_list<DracoValues> attributes) {
   draco::Mesh mesh;
   mesh.set_num_points(3);
-  draco::GeometryAttribute ga;
-  ga.Init(draco::GeometryAttribute::POSITION, nullptr, 3, type, false, 3 * sizeof(T), 0);
-  const int id = mesh.AddAttribute(ga, true, 3);
-  for (int i = 0; i < 3; ++i) mesh.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(i), p[i]);
+  for (const DracoValues& a : attributes) {
+    draco::GeometryAttribute ga;
+    ga.Init(a.kind, nullptr, int8_t(a.components), a.type, a.normalized, int64_t(a.size), 0);
+    const int id = mesh.AddAttribute(ga, true, 3);
+    for (int i = 0; i < 3; ++i)
+      mesh.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(i),
+                                            static_cast<const char*>(a.values) + i * a.size);
+  }
   mesh.SetNumFaces(1);
   mesh.SetFace(draco::FaceIndex(0), {draco::PointIndex(0), draco::PointIndex(1), draco::PointIndex(2)});
   draco::Encoder encoder;
@@ -906,6 +919,12 @@ std::string draco_triangle(draco::DataType type, const T (&p)[3][3]) {
   draco::EncoderBuffer buffer;
   EXPECT_TRUE(encoder.EncodeMeshToBuffer(mesh, &buffer).ok());
   return std::string(buffer.data(), buffer.size());
+}
+
+// A triangle whose positions Draco stores with the given type.
+template <class T>
+std::string draco_triangle(draco::DataType type, const T (&p)[3][3]) {
+  return draco_triangle_of({{draco::GeometryAttribute::POSITION, type, 3, false, p, 3 * sizeof(T)}});
 }
 
 // Found by draco_fuzzer: Draco converts a stored value to float with a plain
@@ -1119,25 +1138,9 @@ TEST(Colors, CoffIntegersAndFractionsAfterNormals) {
 TEST(Colors, DracoColorAttributesOfOtherTypes) {
   const float p[3][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
   auto encode = [&](draco::DataType type, int components, bool normalized, const void* values, size_t size) {
-    draco::Mesh mesh;
-    mesh.set_num_points(3);
-    draco::GeometryAttribute position, color;
-    position.Init(draco::GeometryAttribute::POSITION, nullptr, 3, draco::DT_FLOAT32, false, 12, 0);
-    const int pid = mesh.AddAttribute(position, true, 3);
-    color.Init(draco::GeometryAttribute::COLOR, nullptr, int8_t(components), type, normalized, int64_t(size), 0);
-    const int cid = mesh.AddAttribute(color, true, 3);
-    for (int i = 0; i < 3; ++i) {
-      mesh.attribute(pid)->SetAttributeValue(draco::AttributeValueIndex(i), p[i]);
-      mesh.attribute(cid)->SetAttributeValue(draco::AttributeValueIndex(i),
-                                             static_cast<const char*>(values) + i * size);
-    }
-    mesh.SetNumFaces(1);
-    mesh.SetFace(draco::FaceIndex(0), {draco::PointIndex(0), draco::PointIndex(1), draco::PointIndex(2)});
-    draco::Encoder encoder;
-    encoder.SetSpeedOptions(10, 10);
-    draco::EncoderBuffer buffer;
-    EXPECT_TRUE(encoder.EncodeMeshToBuffer(mesh, &buffer).ok());
-    return parse(std::string(buffer.data(), buffer.size()), MeshFormat::kDraco);
+    return parse(draco_triangle_of({{draco::GeometryAttribute::POSITION, draco::DT_FLOAT32, 3, false, p, 12},
+                                    {draco::GeometryAttribute::COLOR, type, components, normalized, values, size}}),
+                 MeshFormat::kDraco);
   };
   const float rgba[3][4] = {{1, 0, 0.5f, 0.2f}, {0, 1, 0, 1}, {0.25f, 0.75f, 2, 1}};
   auto floats = encode(draco::DT_FLOAT32, 4, false, rgba, 16);

@@ -6,18 +6,13 @@
 #include <png.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
 
-// jpeglib.h needs size_t and FILE declared before it.
-// clang-format off
-#include <jpeglib.h>
-// clang-format on
-
 #include "io/png_io.h"
+#include "test_images.h"
 
 namespace vpr {
 namespace {
@@ -49,34 +44,6 @@ std::vector<uint8_t> png_of(int w, int h, uint32_t format, const std::vector<uin
   std::vector<uint8_t> out(size);
   EXPECT_TRUE(png_image_write_to_memory(&image, out.data(), &size, 0, pixels.data(), 0, nullptr));
   out.resize(size);
-  return out;
-}
-
-std::vector<uint8_t> jpeg_of(int w, int h, const std::vector<uint8_t>& rgb, bool progressive) {
-  jpeg_compress_struct cinfo;
-  jpeg_error_mgr error;
-  cinfo.err = jpeg_std_error(&error);
-  jpeg_create_compress(&cinfo);
-  unsigned char* buffer = nullptr;
-  unsigned long size = 0;
-  jpeg_mem_dest(&cinfo, &buffer, &size);
-  cinfo.image_width = JDIMENSION(w);
-  cinfo.image_height = JDIMENSION(h);
-  cinfo.input_components = 3;
-  cinfo.in_color_space = JCS_RGB;
-  jpeg_set_defaults(&cinfo);
-  jpeg_set_quality(&cinfo, 100, TRUE);
-  for (int c = 0; c < 3; ++c) cinfo.comp_info[c].h_samp_factor = cinfo.comp_info[c].v_samp_factor = 1;  // 4:4:4
-  if (progressive) jpeg_simple_progression(&cinfo);
-  jpeg_start_compress(&cinfo, TRUE);
-  while (cinfo.next_scanline < cinfo.image_height) {
-    JSAMPROW row = const_cast<JSAMPROW>(&rgb[size_t(cinfo.next_scanline) * size_t(w) * 3]);
-    jpeg_write_scanlines(&cinfo, &row, 1);
-  }
-  jpeg_finish_compress(&cinfo);
-  jpeg_destroy_compress(&cinfo);
-  std::vector<uint8_t> out(buffer, buffer + size);
-  std::free(buffer);
   return out;
 }
 
@@ -123,7 +90,7 @@ TEST(TextureIo, JpegDecodesNearItsTexels) {
   const int w = 16, h = 8;
   const std::vector<uint8_t> rgb = pattern(w, h);
   for (bool progressive : {false, true}) {
-    auto image = decode(jpeg_of(w, h, rgb, progressive));
+    auto image = decode(testing::encode_rgb_jpeg(w, h, rgb, progressive));
     ASSERT_TRUE(image.ok()) << image.status().to_string();
     ASSERT_EQ(image->width, w);
     ASSERT_EQ(image->height, h);
@@ -151,7 +118,7 @@ TEST(TextureIo, DeclaredSizesBeyondTheLimitsFailBeforeDecoding) {
   expect_error(decode(*big, 4000), StatusCode::kResourceExhausted,
                "64 x 64 pixels, the limit is 16384 per side and 4000 pixels");
 
-  std::vector<uint8_t> jpeg = jpeg_of(8, 8, pattern(8, 8), false);
+  std::vector<uint8_t> jpeg = testing::encode_rgb_jpeg(8, 8, pattern(8, 8), false);
   // The SOF0 marker: FF C0, length, precision, then height and width big-endian.
   size_t sof = 2;
   while (sof + 9 < jpeg.size() && !(jpeg[sof] == 0xff && jpeg[sof + 1] == 0xc0)) ++sof;
@@ -173,7 +140,7 @@ TEST(TextureIo, BrokenImagesNameTheProblem) {
   corrupt[30] ^= 0x40;  // IHDR's CRC no longer matches
   expect_error(decode(corrupt), StatusCode::kInvalidArgument, "PNG: cannot");
 
-  std::vector<uint8_t> jpeg = jpeg_of(32, 32, rgb, false);
+  std::vector<uint8_t> jpeg = testing::encode_rgb_jpeg(32, 32, rgb, false);
   std::vector<uint8_t> short_jpeg(jpeg.begin(), jpeg.begin() + long(jpeg.size() / 2));
   expect_error(decode(short_jpeg), StatusCode::kInvalidArgument, "JPEG: the image data is truncated");
   std::vector<uint8_t> header_only(jpeg.begin(), jpeg.begin() + 30);
