@@ -196,6 +196,7 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
       return fail(internal_error("the server sent " + std::to_string(o.saliency.size()) +
                                  " saliency values for a result of " + std::to_string(mesh.vertex_count()) +
                                  " vertices"));
+    mesh.colors.clear();  // the field shows as the saliency ramp (-o was written before)
     if (Status s = write_mesh(out.field_out, mesh, saliency_for(mesh)); !s.ok()) return fail(s);
   }
   PipelineResult result;

@@ -76,8 +76,13 @@ int run_local(LocalArgs& a) {
     s.write_ms = ms_since(written_at);
     s.output_vertices = result.mesh.vertex_count();
     s.output_faces = result.mesh.face_count();
-    if (!a.field_out.empty() && result.level == 0)
-      VPR_RETURN_IF_ERROR(write_mesh(a.field_out, *mesh, result.input_importance.data()));
+    if (!a.field_out.empty() && result.level == 0) {
+      // The field shows as the saliency ramp, not behind the input's colors
+      // (a copy: the next levels still take their colors from the input).
+      Mesh field = *mesh;
+      field.colors.clear();
+      VPR_RETURN_IF_ERROR(write_mesh(a.field_out, field, result.input_importance.data()));
+    }
     if (result.level > 0) s.read_ms = 0;  // read once, reported with level 0
     if (a.json) {
       nlohmann::json j = report_json(result, s);

@@ -9,6 +9,7 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -103,11 +104,14 @@ int run_submit(SubmitArgs& a) {
 
   auto start = std::chrono::steady_clock::now();
   Mesh input;  // as parsed here, for --field-out
-  auto bytes = draco_upload(a.input, a.quantization_bits, a.field_out.empty() ? nullptr : &input);
+  bool glb = false;
+  auto bytes = draco_upload(a.input, a.quantization_bits, a.field_out.empty() ? nullptr : &input, &glb);
   if (!bytes.ok()) return fail(bytes.status());
+  input.colors.clear();  // --field-out shows the field as the saliency ramp, not behind the input's colors
   if (!a.field_out.empty()) outputs.input_mesh = &input;
   auto spec = build_spec(a, bytes->size());
   if (!spec.ok()) return fail(spec.status());
+  if (glb) spec->set_input_format(v1::INPUT_FORMAT_GLTF_BINARY);
   outputs.read_ms = ms_since(start);
 
   Replicas replicas(a.server.servers(), a.server.deadline_s);
@@ -151,7 +155,8 @@ int run_submit(SubmitArgs& a) {
 // format parsed here and encoded with sequential connectivity (speed 10),
 // which keeps every vertex and face in its order, so the server runs on
 // exactly what `vpremesh local` would (with lossless positions).
-StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits, Mesh* parsed) {
+StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits, Mesh* parsed, bool* glb) {
+  if (glb) *glb = false;
   VPR_ASSIGN_OR_RETURN(const MeshFormat format, format_from_path(path));
   if (format == MeshFormat::kDraco) {
     if (parsed) {
@@ -160,6 +165,17 @@ StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantiz
     return read_bytes(path);
   }
   VPR_ASSIGN_OR_RETURN(Mesh mesh, read_mesh(path));
+  // A textured .glb goes as it is, so that the server samples its textures
+  // as `local` does; a .gltf with its images beside it cannot, and keeps its
+  // vertex colors only (docs/formats.md, "Colors").
+  if (glb && !mesh.textures.empty()) {
+    VPR_ASSIGN_OR_RETURN(std::vector<uint8_t> bytes, read_bytes(path));
+    if (bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0) {
+      *glb = true;
+      if (parsed) *parsed = std::move(mesh);
+      return bytes;
+    }
+  }
   DracoOptions draco;
   draco.position_bits = quantization_bits;
   draco.speed = 10;

@@ -23,7 +23,10 @@ inline constexpr size_t kChunkBytes = size_t(1) << 20;
 // with sequential connectivity, which keeps every vertex and face in its
 // order. quantization_bits: Draco position bits, 0 = lossless. parsed (when
 // not null) receives the mesh as read here, the same read as `vpremesh local`'s.
-StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits, Mesh* parsed = nullptr);
+// glb (when not null): set when the upload is a .glb with base-color textures,
+// sent as it is (Draco carries no textures) for INPUT_FORMAT_GLTF_BINARY.
+StatusOr<std::vector<uint8_t>> draco_upload(const std::string& path, int quantization_bits, Mesh* parsed = nullptr,
+                                            bool* glb = nullptr);
 
 // Writes the spec and then the file in chunks, waits for the server's
 // response headers, and half-closes. False when the server closed the stream

@@ -9,6 +9,7 @@ find_package(spdlog REQUIRED)
 find_package(nlohmann_json REQUIRED)
 find_package(CLI11 REQUIRED)
 find_package(PNG REQUIRED)
+find_package(JPEG REQUIRED)  # libjpeg62-turbo-dev: glTF base-color textures
 find_package(PkgConfig REQUIRED)
 
 if(VPR_EGL)

@@ -9,7 +9,7 @@ packages=(
   libdraco-dev libopenmesh-dev libflann-dev liblz4-dev libcgal-dev libgmp-dev libmpfr-dev
   libeigen3-dev libtbb-dev libspdlog-dev libfmt-dev libgtest-dev libgmock-dev
   libosmesa6-dev libegl-dev libegl1-mesa-dev libegl-mesa0 libgl1-mesa-dri libgl-dev
-  libpng-dev nlohmann-json3-dev libcli11-dev libmeshoptimizer-dev
+  libpng-dev libjpeg62-turbo-dev nlohmann-json3-dev libcli11-dev libmeshoptimizer-dev
   libgrpc++-dev libprotobuf-dev protobuf-compiler protobuf-compiler-grpc
   python3-grpcio python3-protobuf python3-yaml python3-numpy
   python3-venv python3-pip python3-setuptools python3-wheel  # pip install ./client/python, offline

@@ -77,6 +77,29 @@ TEST_F(CliTest, LocalRemeshesAModelAndReportsStagesAsJson) {
   EXPECT_TRUE(fs::exists(path("debug/view_py_points.ply")));
 }
 
+// A colored input: the output has colors (a colors stage ran), and
+// --field-out still draws the field's ramp, not the input's colors.
+TEST_F(CliTest, LocalCarriesColorsAndTheFieldKeepsItsRamp) {
+  Mesh sphere = testing::icosphere(3);
+  for (size_t v = 0; v < sphere.vertex_count(); ++v)
+    sphere.colors.insert(sphere.colors.end(), {uint8_t(sphere.positions[3 * v + 2] > 0 ? 255 : 0), 40, 80});
+  ASSERT_TRUE(write_mesh(path("colored.ply"), sphere, nullptr).ok());
+  CliRun r = run_cli("local " + path("colored.ply") + " -o " + path("out.obj") +
+                     " --target-vertices 300 --resolution 128 --json --field-out " + path("field.ply"));
+  ASSERT_EQ(r.code, 0) << r.all();
+  const nlohmann::json j = nlohmann::json::parse(r.all());
+  bool colors_stage = false;
+  for (const auto& s : j["stages"]) colors_stage = colors_stage || s["name"] == "colors";
+  EXPECT_TRUE(colors_stage) << r.all();
+  auto out = read_mesh(path("out.obj"));
+  ASSERT_TRUE(out.ok()) << out.status().to_string();
+  ASSERT_EQ(out->colors.size(), 3 * out->vertex_count());
+  for (size_t v = 0; v < out->vertex_count(); ++v) EXPECT_EQ(out->colors[3 * v + 1], 40) << "vertex " << v;
+  std::ifstream field(path("field.ply"), std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(field)), std::istreambuf_iterator<char>());
+  EXPECT_NE(bytes.find("comment vpremesh: vertex colors show saliency"), std::string::npos);
+}
+
 // glTF in -> remesh -> out -> reread, on three inputs generated here from
 // spot (2,930 vertices): plain accessors; two nodes placing it twice with
 // different transforms (one surface of 5,860 vertices); Draco-compressed.

@@ -1,10 +1,12 @@
 // Core types: the counter-based RNG against the published Philox answers,
-// mesh validation messages, areas.
+// mesh validation messages, areas, colors and textures on a mesh, the sRGB
+// transfer function.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
 
+#include "core/color.h"
 #include "core/mesh.h"
 #include "core/rng.h"
 
@@ -114,6 +116,84 @@ TEST(Mesh, UnreferencedVerticesAreDroppedInOrder) {
   for (size_t v = 0; v < nv; ++v) EXPECT_EQ(used[v], v + 1);
   EXPECT_EQ(remove_unreferenced_vertices(&m, &used), 0u);
   EXPECT_TRUE(used.empty());
+}
+
+// A square with one color and one texture coordinate per vertex, and a 2 x 1
+// texture on its vertices 1 and 3.
+Mesh colored_square() {
+  Mesh m = unit_square();
+  m.colors = {10, 11, 12, 20, 21, 22, 30, 31, 32, 40, 41, 42};
+  auto image = std::make_shared<RgbImage>(2, 1);
+  m.textures.textures.push_back({image});
+  m.textures.uvs = {0, 0, 1, 0, 1, 1, 0, 1};
+  m.textures.vertex_texture = {MeshTextures::kNone, 0, MeshTextures::kNone, 0};
+  return m;
+}
+
+TEST(Mesh, UnreferencedVerticesTakeTheirColorsAndTextureCoordinatesAlong) {
+  Mesh m = colored_square();
+  // A stray first: every per-vertex array shifts by one.
+  m.positions.insert(m.positions.begin(), {9, 9, 9});
+  m.colors.insert(m.colors.begin(), {1, 2, 3});
+  m.textures.uvs.insert(m.textures.uvs.begin(), {5, 5});
+  m.textures.vertex_texture.insert(m.textures.vertex_texture.begin(), 0);
+  for (uint32_t& i : m.indices) i += 1;
+  ASSERT_TRUE(validate_mesh(m).ok());
+  EXPECT_EQ(remove_unreferenced_vertices(&m, nullptr), 1u);
+  const Mesh expected = colored_square();
+  EXPECT_EQ(m.colors, expected.colors);
+  EXPECT_EQ(m.textures.uvs, expected.textures.uvs);
+  EXPECT_EQ(m.textures.vertex_texture, expected.textures.vertex_texture);
+  EXPECT_TRUE(validate_mesh(m).ok());
+}
+
+TEST(ValidateMesh, NamesEachAppearanceProblem) {
+  EXPECT_TRUE(validate_mesh(colored_square()).ok());
+  Mesh short_colors = colored_square();
+  short_colors.colors.pop_back();
+  Status s = validate_mesh(short_colors);
+  EXPECT_NE(s.message().find("11 color bytes for 4 vertices"), std::string::npos) << s.message();
+
+  Mesh bad_index = colored_square();
+  bad_index.textures.vertex_texture[2] = 1;
+  s = validate_mesh(bad_index);
+  EXPECT_NE(s.message().find("vertex 2 uses texture 1 but the mesh has 1"), std::string::npos) << s.message();
+
+  Mesh short_uvs = colored_square();
+  short_uvs.textures.uvs.resize(6);
+  s = validate_mesh(short_uvs);
+  EXPECT_NE(s.message().find("3 texture coordinates"), std::string::npos) << s.message();
+
+  Mesh no_image = colored_square();
+  no_image.textures.textures[0].image = nullptr;
+  s = validate_mesh(no_image);
+  EXPECT_NE(s.message().find("texture 0 has no image"), std::string::npos) << s.message();
+
+  Mesh orphan_uvs = unit_square();
+  orphan_uvs.textures.uvs = {0, 0, 0, 0, 0, 0, 0, 0};
+  s = validate_mesh(orphan_uvs);
+  EXPECT_NE(s.message().find("texture coordinates but no textures"), std::string::npos) << s.message();
+}
+
+// IEC 61966-2-1 values, and every byte surviving the way to linear and back.
+TEST(Srgb, KnownValuesAndEveryByteRoundTrips) {
+  EXPECT_EQ(srgb_to_linear(0), 0.0f);
+  EXPECT_EQ(srgb_to_linear(255), 1.0f);
+  EXPECT_NEAR(srgb_to_linear(10), 10 / 255.0 / 12.92, 1e-9);  // the linear toe
+  EXPECT_NEAR(srgb_to_linear(128), 0.2158605, 1e-6);
+  EXPECT_EQ(srgb_from_linear(0.5f), 188);
+  EXPECT_EQ(srgb_from_linear(0.0031308f * 0.5f), 5);  // the toe: 12.92 x 0.0015654 x 255 = 5.16
+  for (int b = 0; b < 256; ++b) EXPECT_EQ(srgb_from_linear(srgb_to_linear(uint8_t(b))), b) << b;
+  EXPECT_EQ(srgb_from_linear(-1.0f), 0);
+  EXPECT_EQ(srgb_from_linear(2.0f), 255);
+  EXPECT_EQ(srgb_from_linear(std::numeric_limits<float>::quiet_NaN()), 0);
+  // Monotone: a brighter linear value never gives a darker byte.
+  uint8_t last = 0;
+  for (int i = 0; i <= 10000; ++i) {
+    const uint8_t b = srgb_from_linear(float(i) / 10000);
+    EXPECT_GE(b, last);
+    last = b;
+  }
 }
 
 TEST(Mesh, OriginIsTheCentreOfUsedVerticesOnlyFarFromZero) {

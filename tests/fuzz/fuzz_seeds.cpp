@@ -3,15 +3,18 @@
 // patch of about 150 faces grown from one face, so each seed is a few KiB),
 // generated shapes (spheres, two separate parts, an open grid, a soup, a
 // point set), each in every reader's format and variants of it (ASCII and
-// binary, both endians, quads, Draco's two codecs, with saliency), and the
-// same shapes in the pipeline fuzzer's encoding (pipeline_input.h).
+// binary, both endians, quads, Draco's two codecs, with saliency, with vertex
+// colors, glTF with a PNG or JPEG base-color texture), and the same shapes
+// in the pipeline fuzzer's encoding (pipeline_input.h).
 //   fuzz_seeds OUT_DIR MODELS_DIR [EXTRA_MESH...]
 // writes OUT_DIR/{obj,ply,off,stl,draco,gltf,pipeline}/<name>.
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <queue>
 #include <string>
 #include <vector>
@@ -19,6 +22,8 @@
 #include "fuzz/pipeline_input.h"
 #include "io/mesh_io.h"
 #include "io/parsers.h"
+#include "io/png_io.h"
+#include "test_images.h"
 #include "test_meshes.h"
 
 namespace {
@@ -247,6 +252,97 @@ void write_gltf(const fs::path& base, const Mesh& m) {
   if (auto b = encode_gltf(m, nullptr, plain, false); b.ok()) write(base.string() + ".gltf", *b);
 }
 
+// The shape with a color per vertex, from its position.
+Mesh colored(Mesh m) {
+  m.colors.resize(m.positions.size());
+  for (size_t i = 0; i < m.positions.size(); ++i) m.colors[i] = uint8_t(int(m.positions[i] * 97.0f) & 255);
+  return m;
+}
+
+// An 8 x 8 texture as PNG, or as JPEG (baseline or progressive).
+std::vector<uint8_t> texture_rgb() {
+  std::vector<uint8_t> rgb(8 * 8 * 3);
+  for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = uint8_t(i * 37);
+  return rgb;
+}
+
+std::string jpeg_texture(bool progressive) {
+  const std::vector<uint8_t> jpeg = testing::encode_rgb_jpeg(8, 8, texture_rgb(), progressive, true);
+  return std::string(jpeg.begin(), jpeg.end());
+}
+
+// A plain GLB whose primitive has TEXCOORD_0 (x, y of each vertex), COLOR_0
+// (4 unsigned bytes) and a material with a factor, a transformed base-color
+// texture and a sampler; the image in a bufferView.
+std::string textured_glb(const Mesh& m, const std::string& image, const char* mime) {
+  using json = nlohmann::json;
+  const size_t nv = m.vertex_count();
+  std::string bin(reinterpret_cast<const char*>(m.positions.data()), 12 * nv);
+  bin.append(reinterpret_cast<const char*>(m.indices.data()), 4 * m.indices.size());
+  for (size_t v = 0; v < nv; ++v) {
+    const float uv[2] = {m.positions[3 * v], m.positions[3 * v + 1]};
+    bin.append(reinterpret_cast<const char*>(uv), 8);
+  }
+  for (size_t v = 0; v < nv; ++v) bin += {char(v), char(3 * v), char(255), char(128)};
+  const size_t at_image = bin.size();
+  bin += image;
+  const size_t offsets[5] = {0, 12 * nv, 12 * nv + 4 * m.indices.size(), 20 * nv + 4 * m.indices.size(), at_image};
+  const size_t lengths[5] = {12 * nv, 4 * m.indices.size(), 8 * nv, 4 * nv, image.size()};
+  json views = json::array();
+  for (int i = 0; i < 5; ++i) views.push_back({{"buffer", 0}, {"byteOffset", offsets[i]}, {"byteLength", lengths[i]}});
+  json root = {
+      {"asset", {{"version", "2.0"}}},
+      {"scene", 0},
+      {"scenes", {{{"nodes", {0}}}}},
+      {"nodes", {{{"mesh", 0}}}},
+      {"meshes",
+       {{{"primitives",
+          {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 2}, {"COLOR_0", 3}}}, {"indices", 1}, {"material", 0}}}}}}},
+      {"materials",
+       {{{"pbrMetallicRoughness",
+          {{"baseColorFactor", {1, 0.5, 0.25, 1}},
+           {"baseColorTexture",
+            {{"index", 0},
+             {"extensions",
+              {{"KHR_texture_transform", {{"offset", {0.5, 0}}, {"rotation", 0.3}, {"scale", {2, 2}}}}}}}}}}}}},
+      {"textures", {{{"source", 0}, {"sampler", 0}}}},
+      {"samplers", {{{"wrapS", 33648}, {"wrapT", 33071}}}},
+      {"images", {{{"bufferView", 4}, {"mimeType", mime}}}},
+      {"accessors",
+       {{{"bufferView", 0}, {"componentType", 5126}, {"count", nv}, {"type", "VEC3"}},
+        {{"bufferView", 1}, {"componentType", 5125}, {"count", m.indices.size()}, {"type", "SCALAR"}},
+        {{"bufferView", 2}, {"componentType", 5126}, {"count", nv}, {"type", "VEC2"}},
+        {{"bufferView", 3}, {"componentType", 5121}, {"normalized", true}, {"count", nv}, {"type", "VEC4"}}}},
+      {"bufferViews", views},
+      {"buffers", {{{"byteLength", bin.size()}}}}};
+  std::string text = root.dump();
+  while (text.size() % 4) text += ' ';
+  while (bin.size() % 4) bin += '\0';
+  auto u32 = [](uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  return "glTF" + u32(2) + u32(uint32_t(28 + text.size() + bin.size())) + u32(uint32_t(text.size())) + "JSON" + text +
+         u32(uint32_t(bin.size())) + std::string("BIN\0", 4) + bin;
+}
+
+// Every format with vertex colors, and glTF with textures.
+void write_colored(const fs::path& out, const std::string& name, const Mesh& plain) {
+  const Mesh m = colored(plain);
+  write(out / "obj" / (name + "-colors.obj"), io_detail::encode_obj(m, nullptr));
+  write(out / "ply" / (name + "-colors.ply"), io_detail::encode_ply(m, nullptr));
+  DracoOptions sequential;
+  sequential.speed = 10;
+  if (auto b = encode_draco(m, nullptr, sequential); b.ok()) write(out / "draco" / (name + "-colors.drc"), *b);
+  DracoOptions plain_gltf;
+  plain_gltf.gltf_draco = false;
+  if (auto b = encode_gltf(m, nullptr, plain_gltf, true); b.ok()) write(out / "gltf" / (name + "-colors.glb"), *b);
+  if (auto b = encode_gltf(m, nullptr, DracoOptions{}, true); b.ok())
+    write(out / "gltf" / (name + "-colors-draco.glb"), *b);
+  const std::vector<uint8_t> rgb = texture_rgb();
+  if (auto png = encode_rgb_png(8, 8, rgb.data()); png.ok())
+    write(out / "gltf" / (name + "-png.glb"), textured_glb(plain, std::string(png->begin(), png->end()), "image/png"));
+  write(out / "gltf" / (name + "-jpeg.glb"), textured_glb(plain, jpeg_texture(false), "image/jpeg"));
+  write(out / "gltf" / (name + "-progressive.glb"), textured_glb(plain, jpeg_texture(true), "image/jpeg"));
+}
+
 void write_pipeline(const fs::path& dir, const std::string& name, const Mesh& m) {
   fuzz::PipelineInput in;
   in.mesh = m.vertex_count() > fuzz::kMaxVertices ? patch(m, 2 * fuzz::kMaxVertices / 3) : m;
@@ -275,6 +371,7 @@ void write_all(const fs::path& out, const std::string& name, const Mesh& m) {
   write(out / "stl" / (name + "-binary.stl"), binary_stl(m));
   write_draco(out / "draco" / name, m);
   write_gltf(out / "gltf" / name, m);
+  write_colored(out, name, m);
   write_pipeline(out / "pipeline", name, m);
 }
 

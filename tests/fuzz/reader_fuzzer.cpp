@@ -4,8 +4,9 @@
 // disk. parse_mesh must return an error or a mesh that validate_mesh accepts;
 // an accepted mesh must come back through our PLY and OBJ writers and readers
 // within a float's precision (and unchanged, frame and all, through the
-// lossless Draco encoder); where the
-// format carries saliency, the values must be one per vertex.
+// lossless Draco encoder), its vertex colors within 1 of 255 (every writer
+// keeps them exactly); where the format carries saliency, the values must be
+// one per vertex.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -30,6 +31,7 @@ MeshLimits fuzz_limits() {
   MeshLimits limits;
   limits.max_vertices = 1 << 20;  // keeps the fuzzer's memory bounded
   limits.max_faces = 1 << 21;
+  limits.max_texture_pixels = 1 << 22;  // a 2048 x 2048 texture: decoded well within the 10 s per input
   return limits;
 }
 
@@ -46,6 +48,12 @@ void expect_same(const Mesh& a, const StatusOr<Mesh>& b, const char* what, bool 
     fail(what);
   }
   if (a.indices != b->indices || a.positions.size() != b->positions.size()) fail(what);
+  if (a.colors.size() != b->colors.size()) fail(what);
+  for (size_t i = 0; i < a.colors.size(); ++i)
+    if (std::abs(int(a.colors[i]) - int(b->colors[i])) > 1) {
+      std::fprintf(stderr, "color byte %zu: %d became %d\n", i, int(a.colors[i]), int(b->colors[i]));
+      fail(what);
+    }
   if (exact) {
     if (a.positions != b->positions || a.origin != b->origin || a.scale != b->scale) fail(what);
     return;

@@ -12,7 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "core/color.h"
 #include "io/mesh_io.h"
+#include "io/png_io.h"
 
 namespace vpr {
 namespace {
@@ -326,20 +328,251 @@ TEST(Gltf, HostileAndBrokenFilesNameTheProblem) {
                "Draco-compressed primitive: Draco: the header declares 1000000000 vertices, the limit is");
 }
 
-// Textures are not read (the output has no UVs): a material whose image is
-// missing or not an image leaves the geometry readable.
-TEST(Gltf, UnreadableTextureIsIgnored) {
-  json root = cube_accessors_and_views(168);
-  root["asset"] = {{"version", "2.0"}};
-  root["scenes"] = {{{"nodes", {0}}}};
-  root["nodes"] = {{{"mesh", 0}}};
-  root["meshes"] = one_mesh({{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"material", 0}});
-  root["materials"] = json::array({json{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
-  root["textures"] = json::array({json{{"source", 0}}});
-  root["images"] = json::array({json{{"uri", "does-not-exist.png"}}});
-  auto mesh = parse(glb(root, cube_bin()));
+// ---- Colors and textures ---------------------------------------------------
+
+// A unit quad in the xy plane (4 vertices, 2 triangles) with texture
+// coordinates (x, y) and COLOR_0, after it any images' bytes; the accessors:
+// 0 positions, 1 indices, 2 TEXCOORD_0, 3 COLOR_0 (VEC3 unsigned short).
+const float kQuad[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+const uint16_t kQuadFaces[6] = {0, 1, 2, 0, 2, 3};
+const float kQuadUv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+const uint16_t kQuadColors[4][4] = {{65535, 0, 0, 0}, {0, 65535, 0, 0}, {0, 0, 65535, 0}, {32768, 32768, 32768, 0}};
+
+std::string quad_bin(const std::string& images = "") {
+  return bytes_of(kQuad, 48) + bytes_of(kQuadFaces, 12) + bytes_of(kQuadUv, 32) + bytes_of(kQuadColors, 32) + images;
+}
+
+json textured_quad(const std::string& png, const json& primitive_attributes) {
+  json root = {{"asset", {{"version", "2.0"}}},
+               {"scenes", {{{"nodes", {0}}}}},
+               {"nodes", {{{"mesh", 0}}}},
+               {"meshes", one_mesh({{"attributes", primitive_attributes}, {"indices", 1}, {"material", 0}})},
+               {"materials", {{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}}},
+               {"textures", {{{"source", 0}, {"sampler", 0}}}},
+               {"samplers", {{{"wrapS", 33071}, {"wrapT", 33648}}}},
+               {"images", {{{"bufferView", 4}, {"mimeType", "image/png"}}}},
+               {"accessors",
+                {{{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"}},
+                 {{"bufferView", 1}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}},
+                 {{"bufferView", 2}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
+                 {{"bufferView", 3}, {"componentType", 5123}, {"normalized", true}, {"count", 4}, {"type", "VEC3"}}}},
+               {"bufferViews",
+                {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 48}},
+                 {{"buffer", 0}, {"byteOffset", 48}, {"byteLength", 12}},
+                 {{"buffer", 0}, {"byteOffset", 60}, {"byteLength", 32}},
+                 {{"buffer", 0}, {"byteOffset", 92}, {"byteLength", 32}, {"byteStride", 8}},
+                 {{"buffer", 0}, {"byteOffset", 124}, {"byteLength", png.size()}}}},
+               {"buffers", {{{"byteLength", 124 + png.size()}}}}};
+  return root;
+}
+
+// A 4 x 2 PNG: texel (x, y) = (60 x, 100 y, 7).
+std::string small_png() {
+  std::vector<uint8_t> rgb;
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 4; ++x) rgb.insert(rgb.end(), {uint8_t(60 * x), uint8_t(100 * y), 7});
+  auto png = encode_rgb_png(4, 2, rgb.data());
+  EXPECT_TRUE(png.ok());
+  return std::string(png->begin(), png->end());
+}
+
+TEST(GltfColors, Color0FormsAreLinearAndTheFactorMultiplies) {
+  // COLOR_0 as stored (unsigned short, stride 8), then as VEC4 floats and
+  // unsigned bytes, each under a baseColorFactor of (1, 0.5, 1).
+  const std::string png = small_png();
+  json root = textured_quad(png, {{"POSITION", 0}, {"COLOR_0", 3}});
+  root["materials"] = {{{"pbrMetallicRoughness", {{"baseColorFactor", {1, 0.5, 1, 1}}}}}};
+  auto mesh = parse(glb(root, quad_bin(png)));
   ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
-  EXPECT_EQ(mesh->face_count(), 12u);
+  EXPECT_TRUE(mesh->textures.empty());
+  const uint8_t half = srgb_from_linear(0.5f), gray = srgb_from_linear(32768.0f / 65535),
+                quarter = srgb_from_linear(0.25f);
+  EXPECT_EQ(half, 188);
+  EXPECT_EQ(mesh->colors, (std::vector<uint8_t>{255, 0, 0, 0, half, 0, 0, 0, 255, gray,
+                                                srgb_from_linear(0.5f * 32768.0f / 65535), gray}));
+  const float rgba[4][4] = {{1, 0, 0, 1}, {0, 1, 0, 1}, {0.25f, 0.5f, 1, 1}, {2, -1, 0.5f, 0}};
+  const uint8_t bytes[4][4] = {{255, 0, 0, 9}, {0, 255, 0, 9}, {64, 128, 255, 9}, {255, 0, 128, 9}};
+  for (int form = 0; form < 2; ++form) {
+    std::string bin = quad_bin(png) + (form == 0 ? bytes_of(rgba, 64) : bytes_of(bytes, 16));
+    json r = root;
+    r["buffers"][0]["byteLength"] = bin.size();
+    r["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", 124 + png.size()}, {"byteLength", form == 0 ? 64 : 16}});
+    r["accessors"][3] = {{"bufferView", 5}, {"componentType", form == 0 ? 5126 : 5121}, {"count", 4}, {"type", "VEC4"}};
+    if (form == 1) r["accessors"][3]["normalized"] = true;
+    auto m = parse(glb(r, bin));
+    ASSERT_TRUE(m.ok()) << m.status().to_string();
+    ASSERT_EQ(m->colors.size(), 12u);
+    const uint8_t third = form == 0 ? quarter : srgb_from_linear(64 / 255.0f);
+    EXPECT_EQ(m->colors[0], 255);
+    EXPECT_EQ(m->colors[4], half);  // green 1 x factor 0.5
+    EXPECT_EQ(m->colors[6], third);
+    EXPECT_EQ(m->colors[9], 255) << "2 is clamped to 1";
+    EXPECT_EQ(m->colors[10], 0) << "-1 is clamped to 0";
+  }
+}
+
+TEST(GltfColors, BaseColorTextureWithSamplerAndTransform) {
+  const std::string png = small_png();
+  json root = textured_quad(png, {{"POSITION", 0}, {"TEXCOORD_0", 2}});
+  auto mesh = parse(glb(root, quad_bin(png)));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  EXPECT_TRUE(mesh->colors.empty()) << "a texture alone gives no vertex colors";
+  const MeshTextures& t = mesh->textures;
+  ASSERT_EQ(t.textures.size(), 1u);
+  EXPECT_EQ(t.textures[0].wrap_u, TextureWrap::kClampToEdge);
+  EXPECT_EQ(t.textures[0].wrap_v, TextureWrap::kMirroredRepeat);
+  const RgbImage& image = *t.textures[0].image;
+  ASSERT_EQ(image.width, 4);
+  ASSERT_EQ(image.height, 2);
+  EXPECT_EQ(image.at(3, 1), (std::array<uint8_t, 3>{180, 100, 7}));
+  EXPECT_EQ(t.uvs, (std::vector<float>{0, 0, 1, 0, 1, 1, 0, 1}));
+  EXPECT_EQ(t.vertex_texture, (std::vector<uint32_t>{0, 0, 0, 0}));
+
+  // KHR_texture_transform: scale (2, 3), a quarter turn, offset (0.5, 0.25):
+  // u' = cos r 2u + sin r 3v + 0.5, v' = -sin r 2u + cos r 3v + 0.25.
+  json turned = root;
+  turned["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = {
+      {"KHR_texture_transform", {{"offset", {0.5, 0.25}}, {"rotation", 1.5707963267948966}, {"scale", {2, 3}}}}};
+  mesh = parse(glb(turned, quad_bin(png)));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  const std::vector<float> expected = {0.5f, 0.25f, 0.5f, -1.75f, 3.5f, -1.75f, 3.5f, 0.25f};
+  ASSERT_EQ(mesh->textures.uvs.size(), expected.size());
+  for (size_t i = 0; i < expected.size(); ++i) EXPECT_NEAR(mesh->textures.uvs[i], expected[i], 1e-6) << i;
+}
+
+// A textured primitive and an untextured, tinted one: one surface whose
+// untextured vertices have kNone, and whose first vertices are white.
+TEST(GltfColors, MixedPrimitivesKeepTheirOwnAppearance) {
+  const std::string png = small_png();
+  json root = textured_quad(png, {{"POSITION", 0}, {"TEXCOORD_0", 2}});
+  json plain = {{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"material", 1}};
+  root["meshes"][0]["primitives"].push_back(plain);
+  root["materials"].push_back({{"pbrMetallicRoughness", {{"baseColorFactor", {0, 0, 1, 1}}}}});
+  auto mesh = parse(glb(root, quad_bin(png)));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  ASSERT_EQ(mesh->vertex_count(), 8u);
+  EXPECT_EQ(mesh->colors, (std::vector<uint8_t>{255, 255, 255, 255, 255, 255, 255, 255, 255, 255, 255, 255,
+                                                0,   0,   255, 0,   0,   255, 0,   0,   255, 0,   0,   255}));
+  const uint32_t none = MeshTextures::kNone;
+  EXPECT_EQ(mesh->textures.vertex_texture, (std::vector<uint32_t>{0, 0, 0, 0, none, none, none, none}));
+  EXPECT_EQ(mesh->textures.uvs.size(), 16u);
+}
+
+// .gltf text with the image as a data: URI, or as a file beside it (which
+// an upload may not name).
+TEST(GltfColors, ImagesFromDataUrisAndFilesBesideTheModel) {
+  const std::string png = small_png();
+  json root = textured_quad(png, {{"POSITION", 0}, {"TEXCOORD_0", 2}});
+  const std::string bin = quad_bin();
+  std::string base64;
+  {
+    static const char digits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    auto encode = [&](const std::string& b) {
+      std::string out;
+      for (size_t i = 0; i < b.size(); i += 3) {
+        uint32_t n = uint32_t(uint8_t(b[i])) << 16;
+        if (i + 1 < b.size()) n |= uint32_t(uint8_t(b[i + 1])) << 8;
+        if (i + 2 < b.size()) n |= uint8_t(b[i + 2]);
+        out += digits[(n >> 18) & 63];
+        out += digits[(n >> 12) & 63];
+        out += i + 1 < b.size() ? digits[(n >> 6) & 63] : '=';
+        out += i + 2 < b.size() ? digits[n & 63] : '=';
+      }
+      return out;
+    };
+    root["buffers"] = {{{"byteLength", bin.size()}, {"uri", "data:application/octet-stream;base64," + encode(bin)}}};
+    root["bufferViews"].erase(4);
+    root["images"] = {{{"uri", "data:image/png;base64," + encode(png)}}};
+  }
+  auto mesh = parse(root.dump());
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  ASSERT_EQ(mesh->textures.textures.size(), 1u);
+  EXPECT_EQ(mesh->textures.textures[0].image->at(1, 0), (std::array<uint8_t, 3>{60, 0, 7}));
+
+  TempDir dir;
+  root["images"] = {{{"uri", "checker.png"}}};
+  write(dir.file("checker.png"), png);
+  write(dir.file("quad.gltf"), root.dump());
+  mesh = read_mesh(dir.file("quad.gltf"));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  EXPECT_EQ(mesh->textures.textures[0].image->at(2, 1), (std::array<uint8_t, 3>{120, 100, 7}));
+  expect_error(parse(root.dump()), StatusCode::kInvalidArgument,
+               "image 0 is the external file 'checker.png', which an upload cannot carry");
+  fs::remove(dir.file("checker.png"));
+  expect_error(read_mesh(dir.file("quad.gltf")), StatusCode::kInvalidArgument,
+               "external image 'checker.png' is missing or unreadable");
+}
+
+// A texture that cannot be read fails the file with one line naming the
+// image and the problem; sizes are refused from the image's header.
+TEST(GltfColors, UnreadableOrHugeTexturesAreOneLineErrors) {
+  const std::string png = small_png();
+  const json attributes = {{"POSITION", 0}, {"TEXCOORD_0", 2}};
+  std::string corrupt = png;
+  corrupt.resize(png.size() - 20);
+  expect_error(parse(glb(textured_quad(corrupt, attributes), quad_bin(corrupt))), StatusCode::kInvalidArgument,
+               "glTF: image 0: PNG: cannot decode the image (libpng: ");
+  std::string huge = png;
+  const char billion[4] = {0x3b, char(0x9a), char(0xca), 0x00};  // 10^9, big-endian
+  huge.replace(16, 4, billion, 4);
+  huge.replace(20, 4, billion, 4);
+  expect_error(parse(glb(textured_quad(huge, attributes), quad_bin(huge))), StatusCode::kResourceExhausted,
+               "glTF: image 0: PNG: the image is 1000000000 x 1000000000 pixels, the limit is 16384 per side");
+  const std::string webp = std::string("RIFF\x10\0\0\0WEBPVP8 ", 16);
+  expect_error(parse(glb(textured_quad(webp, attributes), quad_bin(webp))), StatusCode::kInvalidArgument,
+               "glTF: image 0: the image is neither PNG nor JPEG");
+  // Two 4 x 2 images against a budget of 12 pixels: the second one fails.
+  json two = textured_quad(png, attributes);
+  two["meshes"][0]["primitives"].push_back({{"attributes", attributes}, {"indices", 1}, {"material", 1}});
+  two["materials"].push_back({{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 1}}}}}});
+  two["textures"].push_back({{"source", 1}});
+  two["images"].push_back({{"bufferView", 4}});
+  MeshLimits budget;
+  budget.max_texture_pixels = 12;
+  expect_error(parse(glb(two, quad_bin(png)), budget), StatusCode::kResourceExhausted,
+               "glTF: image 1: PNG: the image is 4 x 2 pixels, the limit is 16384 per side and 4 pixels (the file's "
+               "other textures took 8 of 12)");
+  // No coordinates for the texture, or an image only an extension names.
+  expect_error(parse(glb(textured_quad(png, {{"POSITION", 0}}), quad_bin(png))), StatusCode::kInvalidArgument,
+               "a primitive whose material has a base-color texture has no TEXCOORD_0 for it");
+  json basisu = textured_quad(png, attributes);
+  basisu["textures"][0] = {{"extensions", {{"KHR_texture_basisu", {{"source", 0}}}}}};
+  expect_error(parse(glb(basisu, quad_bin(png))), StatusCode::kInvalidArgument, "texture 0 has no PNG or JPEG image");
+  json sampler = textured_quad(png, attributes);
+  sampler["samplers"][0]["wrapS"] = 1234;
+  expect_error(parse(glb(sampler, quad_bin(png))), StatusCode::kInvalidArgument,
+               "sampler 0: wrapS 1234 is not a wrap mode");
+}
+
+TEST(GltfColors, WriterRoundTripKeepsColorsPlainAndCompressed) {
+  TempDir dir;
+  Mesh mesh = far_sphere();
+  for (size_t v = 0; v < mesh.vertex_count(); ++v)
+    mesh.colors.insert(mesh.colors.end(), {uint8_t(v * 5), uint8_t(255 - v * 3), uint8_t(v % 4)});
+  std::vector<float> saliency(mesh.vertex_count(), 0.25f);
+  DracoOptions plain;
+  plain.gltf_draco = false;
+  DracoOptions sequential;
+  sequential.speed = 10;
+  for (const DracoOptions& options : {plain, sequential}) {
+    for (const char* name : {"c.glb", "c.gltf"}) {
+      ASSERT_TRUE(write_mesh(dir.file(name), mesh, saliency.data(), options).ok()) << name;
+      auto back = read_mesh(dir.file(name));
+      ASSERT_TRUE(back.ok()) << name << ": " << back.status().to_string();
+      ASSERT_EQ(back->vertex_count(), mesh.vertex_count());
+      // The vertex order is kept (plain accessors, sequential Draco): colors come back byte for byte.
+      EXPECT_EQ(back->colors, mesh.colors) << name << (options.gltf_draco ? " compressed" : " plain");
+    }
+  }
+  // COLOR_0 is linear unsigned short, VEC3, vertex-aligned with a stride of 8.
+  ASSERT_TRUE(write_mesh(dir.file("p.gltf"), mesh, nullptr, plain).ok());
+  std::ifstream in(dir.file("p.gltf"));
+  const json root = json::parse(in);
+  const json& accessor = root["accessors"][int(root["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"])];
+  EXPECT_EQ(accessor["componentType"], 5123);
+  EXPECT_EQ(accessor["type"], "VEC3");
+  EXPECT_EQ(accessor["normalized"], true);
+  EXPECT_EQ(root["bufferViews"][int(accessor["bufferView"])]["byteStride"], 8);
 }
 
 }  // namespace

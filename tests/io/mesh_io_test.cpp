@@ -30,6 +30,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// What our PLY and OBJ writers say when their colors are the saliency ramp.
+constexpr const char* kRampComment = "vertex colors show saliency";
+
 // ---- Helpers ---------------------------------------------------------------
 
 class TempDir {
@@ -886,16 +889,29 @@ std::string draco_point_cloud() {
   return std::string(buffer.data(), buffer.size());
 }
 
-// A triangle whose positions Draco stores with the given type (sequential,
-// unquantized, so the values arrive as they are).
-template <class T>
-std::string draco_triangle(draco::DataType type, const T (&p)[3][3]) {
+// One attribute of a Draco triangle: 3 values of `size` bytes each.
+struct DracoValues {
+  draco::GeometryAttribute::Type kind;
+  draco::DataType type;
+  int components;
+  bool normalized;
+  const void* values;
+  size_t size;
+};
+
+// A triangle of the given attributes, sequential and unquantized, so the
+// values arrive as they are.
+std::string draco_triangle_of(std::initializer_list<DracoValues> attributes) {
   draco::Mesh mesh;
   mesh.set_num_points(3);
-  draco::GeometryAttribute ga;
-  ga.Init(draco::GeometryAttribute::POSITION, nullptr, 3, type, false, 3 * sizeof(T), 0);
-  const int id = mesh.AddAttribute(ga, true, 3);
-  for (int i = 0; i < 3; ++i) mesh.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(i), p[i]);
+  for (const DracoValues& a : attributes) {
+    draco::GeometryAttribute ga;
+    ga.Init(a.kind, nullptr, int8_t(a.components), a.type, a.normalized, int64_t(a.size), 0);
+    const int id = mesh.AddAttribute(ga, true, 3);
+    for (int i = 0; i < 3; ++i)
+      mesh.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(i),
+                                            static_cast<const char*>(a.values) + i * a.size);
+  }
   mesh.SetNumFaces(1);
   mesh.SetFace(draco::FaceIndex(0), {draco::PointIndex(0), draco::PointIndex(1), draco::PointIndex(2)});
   draco::Encoder encoder;
@@ -903,6 +919,12 @@ std::string draco_triangle(draco::DataType type, const T (&p)[3][3]) {
   draco::EncoderBuffer buffer;
   EXPECT_TRUE(encoder.EncodeMeshToBuffer(mesh, &buffer).ok());
   return std::string(buffer.data(), buffer.size());
+}
+
+// A triangle whose positions Draco stores with the given type.
+template <class T>
+std::string draco_triangle(draco::DataType type, const T (&p)[3][3]) {
+  return draco_triangle_of({{draco::GeometryAttribute::POSITION, type, 3, false, p, 3 * sizeof(T)}});
 }
 
 // Found by draco_fuzzer: Draco converts a stored value to float with a plain
@@ -976,6 +998,158 @@ int fuzz_one(const std::string& bytes, MeshFormat format) {
       << mesh.status().to_string();
   EXPECT_FALSE(mesh.status().message().empty());
   return 1;
+}
+
+// ---- Colors ----------------------------------------------------------------
+
+// The cube with a color per corner: every channel value different.
+Mesh colored_cube() {
+  Mesh m = cube_mesh();
+  for (size_t v = 0; v < 8; ++v)
+    m.colors.insert(m.colors.end(), {uint8_t(30 * v), uint8_t(255 - 31 * v), uint8_t(7 + v)});
+  return m;
+}
+
+// Colors of `back` against `mesh`'s, each vertex matched by position (Draco's
+// edgebreaker reorders them); returns the largest channel difference.
+int color_error(const Mesh& mesh, const Mesh& back) {
+  EXPECT_EQ(back.colors.size(), 3 * back.vertex_count());
+  int worst = 0;
+  for (size_t i = 0; i < back.vertex_count() && back.colors.size() == 3 * back.vertex_count(); ++i) {
+    size_t nearest = 0;
+    double best = 1e300;
+    for (size_t j = 0; j < mesh.vertex_count(); ++j) {
+      double d = 0;
+      for (int a = 0; a < 3; ++a) d += std::pow(back.absolute(i, a) - mesh.absolute(j, a), 2);
+      if (d < best) best = d, nearest = j;
+    }
+    for (size_t c = 0; c < 3; ++c)
+      worst = std::max(worst, std::abs(int(back.colors[3 * i + c]) - int(mesh.colors[3 * nearest + c])));
+  }
+  return worst;
+}
+
+TEST(Colors, EveryWriterAndReaderKeepsThemExactly) {
+  TempDir dir;
+  const Mesh cube = colored_cube();
+  const std::vector<float> saliency = {0.0f, 0.125f, 0.25f, 0.5f, 0.75f, 1.0f, 0.3f, 0.99f};
+  DracoOptions sequential;
+  sequential.speed = 10;
+  for (const char* name : {"c.ply", "c.obj", "c.drc", "c.glb", "c.gltf"}) {
+    for (const float* s : {static_cast<const float*>(nullptr), saliency.data()}) {
+      const std::string path = dir.file(name);
+      ASSERT_TRUE(write_mesh(path, cube, s).ok()) << name;
+      auto back = read_mesh(path);
+      ASSERT_TRUE(back.ok()) << name << ": " << back.status().to_string();
+      EXPECT_EQ(color_error(cube, *back), 0) << name << (s ? " with saliency" : "");
+      if (s && std::string(name) != "c.obj") {
+        auto values = read_saliency(path);
+        ASSERT_TRUE(values.ok());
+        EXPECT_EQ(values->size(), 8u) << name;
+      }
+    }
+  }
+  // Sequential Draco keeps the vertex order: the bytes come back in place.
+  ASSERT_TRUE(write_mesh(dir.file("s.drc"), cube, nullptr, sequential).ok());
+  auto in_order = read_mesh(dir.file("s.drc"));
+  ASSERT_TRUE(in_order.ok());
+  EXPECT_EQ(in_order->colors, cube.colors);
+  // PLY: x y z saliency red green blue, the real colors beside the saliency.
+  ASSERT_TRUE(write_mesh(dir.file("s.ply"), cube, saliency.data()).ok());
+  const std::string ply = read_bytes(dir.file("s.ply"));
+  const size_t body = ply.find("end_header\n") + 11;
+  EXPECT_EQ(ply.find(kRampComment), std::string::npos);
+  for (size_t c = 0; c < 3; ++c) EXPECT_EQ(uint8_t(ply[body + 19 + 16 + c]), cube.colors[3 + c]);
+}
+
+// Without colors, saliency is drawn as the ramp, marked so that a reader
+// does not take the ramp for the model's colors.
+TEST(Colors, TheSaliencyRampIsNotReadBackAsColors) {
+  TempDir dir;
+  const Mesh cube = cube_mesh();
+  const std::vector<float> saliency(8, 0.5f);
+  for (const char* name : {"r.ply", "r.obj"}) {
+    ASSERT_TRUE(write_mesh(dir.file(name), cube, saliency.data()).ok());
+    EXPECT_NE(read_bytes(dir.file(name)).find(kRampComment), std::string::npos) << name;
+    auto back = read_mesh(dir.file(name));
+    ASSERT_TRUE(back.ok()) << back.status().to_string();
+    EXPECT_TRUE(back->colors.empty()) << name;
+  }
+}
+
+std::string colored_triangle_ply(const std::string& type, const std::string& values) {
+  std::string s = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n";
+  for (const char* name : {"red", "diffuse_green", "blue"}) s += "property " + type + " " + name + "\n";
+  s += "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  return s + values + "3 0 1 2\n";
+}
+
+TEST(Colors, PlyTypesScaleToBytes) {
+  struct Case {
+    const char* type;
+    const char* values;
+    std::vector<uint8_t> expected;
+  } cases[] = {
+      {"uchar", "0 0 0 255 0 9\n1 0 0 0 128 0\n0 1 0 1 2 3\n", {255, 0, 9, 0, 128, 0, 1, 2, 3}},
+      {"float", "0 0 0 1 0 0.5\n1 0 0 2 -1 0.25\n0 1 0 0.2 0.4 0.6\n", {255, 0, 128, 255, 0, 64, 51, 102, 153}},
+      {"ushort", "0 0 0 65535 0 257\n1 0 0 0 32896 0\n0 1 0 1 2 3\n", {255, 0, 1, 0, 128, 0, 0, 0, 0}},
+      {"int", "0 0 0 300 -5 9\n1 0 0 0 128 0\n0 1 0 1 2 3\n", {255, 0, 9, 0, 128, 0, 1, 2, 3}},
+  };
+  for (const Case& c : cases) {
+    auto mesh = parse(colored_triangle_ply(c.type, c.values), MeshFormat::kPly);
+    ASSERT_TRUE(mesh.ok()) << c.type << ": " << mesh.status().to_string();
+    EXPECT_EQ(mesh->colors, c.expected) << c.type;
+  }
+  // Two of three channels are no colors.
+  auto partial = parse(
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "property uchar red\nproperty uchar green\nelement face 1\nproperty list uchar int vertex_indices\n"
+      "end_header\n0 0 0 1 2\n1 0 0 1 2\n0 1 0 1 2\n3 0 1 2\n",
+      MeshFormat::kPly);
+  ASSERT_TRUE(partial.ok()) << partial.status().to_string();
+  EXPECT_TRUE(partial->colors.empty());
+}
+
+TEST(Colors, ObjVerticesWithoutColorsAreWhite) {
+  auto mesh = parse("v 0 0 0\nv 1 0 0 1 0.5 0\nv 0 1 0 1.5 -2 0.2\nv 1 1 0 1\nf 1 2 3\nf 2 4 3\n", MeshFormat::kObj);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  EXPECT_EQ(mesh->colors, (std::vector<uint8_t>{255, 255, 255, 255, 128, 0, 255, 0, 51, 255, 255, 255}));
+  auto plain = parse("v 0 0 0\nv 1 0 0 1\nv 0 1 0\nf 1 2 3\n", MeshFormat::kObj);
+  ASSERT_TRUE(plain.ok());
+  EXPECT_TRUE(plain->colors.empty());
+}
+
+TEST(Colors, CoffIntegersAndFractionsAfterNormals) {
+  const std::string faces = "3 0 1 2\n";
+  auto bytes = parse("COFF\n3 1 0\n0 0 0 255 0 10 255\n1 0 0 0.5 1 0\n0 1 0 7\n" + faces, MeshFormat::kOff);
+  ASSERT_TRUE(bytes.ok()) << bytes.status().to_string();
+  // The third vertex's color is a colormap index: white.
+  EXPECT_EQ(bytes->colors, (std::vector<uint8_t>{255, 0, 10, 128, 255, 0, 255, 255, 255}));
+  auto normals =
+      parse("CNOFF\n3 1 0\n0 0 0 0 0 1 1 2 3\n1 0 0 0 0 1 4 5 6 1\n0 1 0 0 0 1 7 8 9\n" + faces, MeshFormat::kOff);
+  ASSERT_TRUE(normals.ok()) << normals.status().to_string();
+  EXPECT_EQ(normals->colors, (std::vector<uint8_t>{1, 2, 3, 4, 5, 6, 7, 8, 9}));
+  auto plain = parse("OFF\n3 1 0\n0 0 0 1 2 3\n1 0 0\n0 1 0\n" + faces, MeshFormat::kOff);
+  ASSERT_TRUE(plain.ok());
+  EXPECT_TRUE(plain->colors.empty());
+}
+
+// Another writer's Draco colors: 4 float components, or uint16 not normalized.
+TEST(Colors, DracoColorAttributesOfOtherTypes) {
+  const float p[3][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  auto encode = [&](draco::DataType type, int components, bool normalized, const void* values, size_t size) {
+    return parse(draco_triangle_of({{draco::GeometryAttribute::POSITION, draco::DT_FLOAT32, 3, false, p, 12},
+                                    {draco::GeometryAttribute::COLOR, type, components, normalized, values, size}}),
+                 MeshFormat::kDraco);
+  };
+  const float rgba[3][4] = {{1, 0, 0.5f, 0.2f}, {0, 1, 0, 1}, {0.25f, 0.75f, 2, 1}};
+  auto floats = encode(draco::DT_FLOAT32, 4, false, rgba, 16);
+  ASSERT_TRUE(floats.ok()) << floats.status().to_string();
+  EXPECT_EQ(floats->colors, (std::vector<uint8_t>{255, 0, 128, 0, 255, 0, 64, 191, 255}));
+  const uint16_t wide[3][3] = {{65535, 0, 257}, {0, 65535, 0}, {0, 0, 0}};
+  auto shorts = encode(draco::DT_UINT16, 3, false, wide, 6);
+  ASSERT_TRUE(shorts.ok()) << shorts.status().to_string();
+  EXPECT_EQ(shorts->colors, (std::vector<uint8_t>{255, 0, 1, 0, 255, 0, 0, 0, 0}));
 }
 
 TEST(Hostile, RandomBytesForEveryFormatNeverCrash) {

@@ -231,6 +231,52 @@ TEST(RemeshService, ResultAndSaliencyComeBackUnlessTurnedOff) {
   }
 }
 
+// An upload with vertex colors, as Draco and as GLB: the result's Draco file
+// carries colors for every output vertex, red on top and blue below as the
+// input's, and the job ran a colors stage.
+TEST(RemeshService, ColorsOfTheUploadComeBackInTheResult) {
+  Server s(1);
+  Mesh sphere = testing::icosphere(3);
+  for (size_t v = 0; v < sphere.vertex_count(); ++v) {
+    const bool top = sphere.positions[3 * v + 2] > 0;
+    sphere.colors.insert(sphere.colors.end(), {uint8_t(top ? 255 : 0), 0, uint8_t(top ? 0 : 255)});
+  }
+  DracoOptions sequential;
+  sequential.speed = 10;
+  DracoOptions plain;
+  plain.gltf_draco = false;
+  for (bool glb : {false, true}) {
+    auto bytes = glb ? encode_gltf(sphere, nullptr, plain, true) : encode_draco(sphere, nullptr, sequential);
+    ASSERT_TRUE(bytes.ok());
+    v1::JobSpec spec = small_spec();
+    if (glb) spec.set_input_format(v1::INPUT_FORMAT_GLTF_BINARY);
+    const Outcome out = remesh(s, upload(spec, *bytes));
+    ASSERT_TRUE(out.status.ok()) << out.status.error_message();
+    ASSERT_TRUE(out.events.back().has_completed()) << out.events.back().DebugString();
+    std::string result;
+    bool colors_stage = false;
+    for (const v1::JobEvent& e : out.events) {
+      if (e.has_result()) result += e.result().data();
+      if (e.has_stage() && e.stage().name() == "colors") colors_stage = true;
+    }
+    EXPECT_TRUE(colors_stage) << (glb ? "GLB" : "Draco");
+    auto decoded = parse_mesh(reinterpret_cast<const uint8_t*>(result.data()), result.size(), MeshFormat::kDraco);
+    ASSERT_TRUE(decoded.ok()) << decoded.status().to_string();
+    ASSERT_EQ(decoded->colors.size(), 3 * decoded->vertex_count());
+    // Away from the equator each vertex is one of the two colors exactly.
+    size_t checked = 0;
+    for (size_t v = 0; v < decoded->vertex_count(); ++v) {
+      const double z = decoded->absolute(v, 2);
+      if (std::abs(z) < 0.2) continue;
+      ++checked;
+      const uint8_t* c = &decoded->colors[3 * v];
+      EXPECT_EQ(c[0], z > 0 ? 255 : 0) << "vertex " << v;
+      EXPECT_EQ(c[2], z > 0 ? 0 : 255) << "vertex " << v;
+    }
+    EXPECT_GT(checked, 200u);
+  }
+}
+
 TEST(RemeshService, ReturnsSaliencyPointsDebugImagesAndTheInputField) {
   Server s(1);
   const std::vector<uint8_t> mesh = draco_sphere();

@@ -15,6 +15,7 @@
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "grpc/reflection/v1alpha/reflection.grpc.pb.h"
 #include "http_get.h"
+#include "io/png_io.h"
 #include "service_harness.h"
 #include "test_meshes.h"
 
@@ -50,6 +51,80 @@ class ServiceTest : public ::testing::Test {
 #define START_SERVER(var, ...)   \
   auto var = start(__VA_ARGS__); \
   ASSERT_TRUE(var->started()) << var->log()
+
+// An icosphere as a GLB whose base-color texture (2 x 2 PNG, top row red,
+// bottom row blue, clamped) maps by height: v = (1 - z) / 2.
+std::string textured_sphere_glb() {
+  const Mesh m = icosphere(3);
+  const size_t nv = m.vertex_count();
+  std::vector<float> uv;
+  for (size_t v = 0; v < nv; ++v) uv.insert(uv.end(), {0.5f, 0.5f * (1 - m.positions[3 * v + 2])});
+  const uint8_t rgb[12] = {255, 0, 0, 255, 0, 0, 0, 0, 255, 0, 0, 255};
+  auto png = encode_rgb_png(2, 2, rgb);
+  EXPECT_TRUE(png.ok());
+  std::string bin(reinterpret_cast<const char*>(m.positions.data()), 12 * nv);
+  bin.append(reinterpret_cast<const char*>(m.indices.data()), 4 * m.indices.size());
+  bin.append(reinterpret_cast<const char*>(uv.data()), 8 * nv);
+  const size_t at_png = bin.size();
+  bin.append(png->begin(), png->end());
+  while (bin.size() % 4) bin += '\0';
+  nlohmann::json views = nlohmann::json::array();
+  for (auto [offset, length] : std::vector<std::pair<size_t, size_t>>{{0, 12 * nv},
+                                                                      {12 * nv, 4 * m.indices.size()},
+                                                                      {12 * nv + 4 * m.indices.size(), 8 * nv},
+                                                                      {at_png, png->size()}})
+    views.push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", length}});
+  const nlohmann::json root = {
+      {"asset", {{"version", "2.0"}}},
+      {"scenes", {{{"nodes", {0}}}}},
+      {"nodes", {{{"mesh", 0}}}},
+      {"meshes",
+       {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 2}}}, {"indices", 1}, {"material", 0}}}}}}},
+      {"materials", {{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}}},
+      {"textures", {{{"source", 0}, {"sampler", 0}}}},
+      {"samplers", {{{"wrapS", 33071}, {"wrapT", 33071}}}},
+      {"images", {{{"bufferView", 3}, {"mimeType", "image/png"}}}},
+      {"accessors",
+       {{{"bufferView", 0}, {"componentType", 5126}, {"count", nv}, {"type", "VEC3"}},
+        {{"bufferView", 1}, {"componentType", 5125}, {"count", m.indices.size()}, {"type", "SCALAR"}},
+        {{"bufferView", 2}, {"componentType", 5126}, {"count", nv}, {"type", "VEC2"}}}},
+      {"bufferViews", views},
+      {"buffers", {{{"byteLength", bin.size()}}}}};
+  std::string text = root.dump();
+  while (text.size() % 4) text += ' ';
+  auto u32 = [](uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  return "glTF" + u32(2) + u32(uint32_t(28 + text.size() + bin.size())) + u32(uint32_t(text.size())) + "JSON" + text +
+         u32(uint32_t(bin.size())) + std::string("BIN\0", 4) + bin;
+}
+
+// A textured .glb goes to the server as it is (a Draco upload would carry no
+// texture): the result has the texture's colors, the same file as local's.
+TEST_F(ServiceTest, SubmitSendsATexturedGlbAsItIs) {
+  START_SERVER(server);
+  std::ofstream(path("sphere.glb"), std::ios::binary) << textured_sphere_glb();
+  CliRun local = run_cli("local " + path("sphere.glb") + " -o " + path("local.drc") + " -n 300 --seed 7");
+  ASSERT_EQ(local.code, 0) << local.err;
+  CliRun remote = run_cli("submit " + path("sphere.glb") + " -o " + path("remote.drc") + " -n 300 --seed 7 --server " +
+                          server->address());
+  ASSERT_EQ(remote.code, 0) << remote.err << "\n" << server->log();
+  auto file = [](const std::string& p) {
+    std::ifstream f(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  };
+  EXPECT_TRUE(file(path("local.drc")) == file(path("remote.drc")));
+  auto mesh = read_mesh(path("remote.drc"));
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  ASSERT_EQ(mesh->colors.size(), 3 * mesh->vertex_count());
+  size_t checked = 0;
+  for (size_t v = 0; v < mesh->vertex_count(); ++v) {
+    const double z = mesh->absolute(v, 2);
+    if (std::abs(z) < 0.6) continue;  // the bilinear blend between the rows
+    ++checked;
+    const uint8_t expected[3] = {uint8_t(z > 0 ? 255 : 0), 0, uint8_t(z > 0 ? 0 : 255)};
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(mesh->colors[3 * v + c], expected[c]) << "vertex " << v;
+  }
+  EXPECT_GT(checked, 50u);
+}
 
 // `vpremesh submit` gives what `vpremesh local` gives with the same seed:
 // the same vertices at the same positions. status, watch and cancel then

@@ -1,7 +1,8 @@
-// Row-major single-channel images. Row 0 is the top of the picture (glReadPixels
-// output is flipped once, in the renderer).
+// Row-major images: single-channel, and 8-bit RGB for textures. Row 0 is the
+// top of the picture (glReadPixels output is flipped once, in the renderer).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -24,5 +25,6 @@ struct Image {
 using GrayImage = Image<uint8_t>;  // 0..255 shaded intensity
 using Mask = Image<uint8_t>;       // 0 or 1
 using FloatImage = Image<float>;
+using RgbImage = Image<std::array<uint8_t, 3>>;  // 8-bit sRGB color (textures)
 
 }  // namespace vpr

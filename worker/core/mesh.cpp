@@ -43,6 +43,35 @@ Status validate_mesh(const Mesh& mesh, const MeshLimits& limits) {
                               " vertices");
   }
   if (!(total_area(mesh) > 0.0)) return invalid_argument("degenerate mesh: every face has zero area");
+  return validate_appearance(mesh);
+}
+
+Status validate_appearance(const Mesh& mesh) {
+  const size_t nv = mesh.vertex_count();
+  if (!mesh.colors.empty() && mesh.colors.size() != 3 * nv)
+    return invalid_argument("the mesh has " + std::to_string(mesh.colors.size()) + " color bytes for " +
+                            std::to_string(nv) + " vertices (3 per vertex are needed)");
+  const MeshTextures& t = mesh.textures;
+  if (t.empty()) {
+    if (!t.uvs.empty() || !t.vertex_texture.empty())
+      return invalid_argument("the mesh has texture coordinates but no textures");
+    return Status::Ok();
+  }
+  if (t.uvs.size() != 2 * nv || t.vertex_texture.size() != nv)
+    return invalid_argument("the mesh has " + std::to_string(t.uvs.size() / 2) + " texture coordinates and " +
+                            std::to_string(t.vertex_texture.size()) + " texture indices for " + std::to_string(nv) +
+                            " vertices");
+  for (size_t v = 0; v < nv; ++v) {
+    if (t.vertex_texture[v] != MeshTextures::kNone && t.vertex_texture[v] >= t.textures.size())
+      return invalid_argument("vertex " + std::to_string(v) + " uses texture " + std::to_string(t.vertex_texture[v]) +
+                              " but the mesh has " + std::to_string(t.textures.size()));
+  }
+  for (size_t i = 0; i < t.textures.size(); ++i) {
+    const RgbImage* image = t.textures[i].image.get();
+    if (!image || image->width <= 0 || image->height <= 0 ||
+        image->pixels.size() != size_t(image->width) * size_t(image->height))
+      return invalid_argument("texture " + std::to_string(i) + " has no image or an image of the wrong size");
+  }
   return Status::Ok();
 }
 
@@ -106,6 +135,8 @@ Mesh mesh_from_absolute(const std::vector<double>& positions, std::vector<uint32
 Mesh rebased(const Mesh& mesh, const std::array<double, 3>& origin, double scale) {
   Mesh out;
   out.indices = mesh.indices;
+  out.colors = mesh.colors;
+  out.textures = mesh.textures;
   out.origin = origin;
   out.scale = scale;
   out.positions.resize(mesh.positions.size());
@@ -162,12 +193,28 @@ size_t remove_unreferenced_vertices(Mesh* mesh, std::vector<uint32_t>* used) {
   if (used) used->clear();
   if (kept == nv) return 0;
   if (used) used->resize(kept);
+  const bool colors = !mesh->colors.empty();
+  MeshTextures& t = mesh->textures;
+  const bool textures = !t.empty();
   for (size_t v = 0; v < nv; ++v) {
     if (remap[v] == kUnused) continue;
-    for (int a = 0; a < 3; ++a) mesh->positions[3 * size_t(remap[v]) + size_t(a)] = mesh->positions[3 * v + size_t(a)];
-    if (used) (*used)[remap[v]] = uint32_t(v);
+    const size_t to = remap[v];
+    for (size_t a = 0; a < 3; ++a) mesh->positions[3 * to + a] = mesh->positions[3 * v + a];
+    if (colors)
+      for (size_t c = 0; c < 3; ++c) mesh->colors[3 * to + c] = mesh->colors[3 * v + c];
+    if (textures) {
+      t.uvs[2 * to] = t.uvs[2 * v];
+      t.uvs[2 * to + 1] = t.uvs[2 * v + 1];
+      t.vertex_texture[to] = t.vertex_texture[v];
+    }
+    if (used) (*used)[to] = uint32_t(v);
   }
   mesh->positions.resize(3 * size_t(kept));
+  if (colors) mesh->colors.resize(3 * size_t(kept));
+  if (textures) {
+    t.uvs.resize(2 * size_t(kept));
+    t.vertex_texture.resize(kept);
+  }
   for (uint32_t& i : mesh->indices) i = remap[i];
   return nv - kept;
 }

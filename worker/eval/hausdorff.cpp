@@ -1,13 +1,9 @@
 // Metro-style Hausdorff distance (Cignoni, Rocchini, Scopigno, "Metro: measuring
 // error on simplified surfaces", 1998). Each direction samples the source surface
 // area-uniformly and measures every sample's exact distance to the target surface
-// through a CGAL AABB tree.
+// through a CGAL AABB tree (surface/closest_point.h).
 #include "eval/hausdorff.h"
 
-#include <CGAL/AABB_traits.h>
-#include <CGAL/AABB_tree.h>
-#include <CGAL/AABB_triangle_primitive.h>
-#include <CGAL/Simple_cartesian.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -18,48 +14,10 @@
 
 #include "core/rng.h"
 #include "core/vec3.h"
+#include "surface/closest_point.h"
 
 namespace vpr {
 namespace {
-
-using Kernel = CGAL::Simple_cartesian<double>;
-using Point = Kernel::Point_3;
-using Triangle = Kernel::Triangle_3;
-using TriangleIterator = std::vector<Triangle>::const_iterator;
-using Primitive = CGAL::AABB_triangle_primitive<Kernel, TriangleIterator>;
-using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, Primitive>>;
-
-// The tree keeps iterators into `triangles`, so both live together and the
-// struct is neither copied nor moved once built.
-struct SurfaceTree {
-  std::vector<Triangle> triangles;
-  Tree tree;
-  SurfaceTree() = default;
-  SurfaceTree(const SurfaceTree&) = delete;
-  SurfaceTree& operator=(const SurfaceTree&) = delete;
-};
-
-Point to_point(Vec3d v) {
-  return {v.x, v.y, v.z};
-}
-
-// Returns false when every face is degenerate for CGAL (exactly collinear corners),
-// which validate_mesh's floating-point area test can miss.
-bool build_tree(const Mesh& mesh, SurfaceTree* out) {
-  const float* p = mesh.positions.data();
-  out->triangles.reserve(mesh.face_count());
-  for (size_t f = 0; f < mesh.face_count(); ++f) {
-    Triangle t(to_point(load3d(p, mesh.indices[3 * f])), to_point(load3d(p, mesh.indices[3 * f + 1])),
-               to_point(load3d(p, mesh.indices[3 * f + 2])));
-    if (!t.is_degenerate()) out->triangles.push_back(t);
-  }
-  if (out->triangles.empty()) return false;
-  out->tree.insert(out->triangles.cbegin(), out->triangles.cend());
-  // Both are lazy in CGAL; doing them here keeps the parallel queries read-only.
-  out->tree.build();
-  out->tree.accelerate_distance_queries();
-  return true;
-}
 
 struct DirectedStats {
   double max = 0;   // over area samples and vertices, model units
@@ -68,7 +26,7 @@ struct DirectedStats {
 };
 
 // Distances from `source` (area samples, then referenced vertices) to `target`.
-DirectedStats directed_distance(const Mesh& source, const SurfaceTree& target, size_t samples, uint64_t seed) {
+DirectedStats directed_distance(const Mesh& source, const ClosestPointTree& target, size_t samples, uint64_t seed) {
   const size_t nf = source.face_count();
   const float* p = source.positions.data();
   const std::vector<double> areas = face_areas(source);
@@ -107,7 +65,7 @@ DirectedStats directed_distance(const Mesh& source, const SurfaceTree& target, s
         const double r1 = std::sqrt(double(uniform01(bits.v[0])));
         const double r2 = double(uniform01(bits.v[1]));
         const Vec3d q = a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2);
-        area_distance[offset[f] + j] = std::sqrt(target.tree.squared_distance(to_point(q)));
+        area_distance[offset[f] + j] = std::sqrt(target.squared_distance(q));
       }
     }
   });
@@ -115,7 +73,7 @@ DirectedStats directed_distance(const Mesh& source, const SurfaceTree& target, s
   std::vector<double> vertex_distance(vertices.size());
   tbb::parallel_for(tbb::blocked_range<size_t>(0, vertices.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i != r.end(); ++i)
-      vertex_distance[i] = std::sqrt(target.tree.squared_distance(to_point(load3d(p, vertices[i]))));
+      vertex_distance[i] = std::sqrt(target.squared_distance(load3d(p, vertices[i])));
   });
 
   // Serial sums in sample order: the result does not depend on the thread count.
@@ -147,11 +105,11 @@ StatusOr<HausdorffResult> hausdorff_distance(const Mesh& reference, const Mesh& 
     return invalid_argument("samples_per_mesh is " + std::to_string(options.samples_per_mesh) + ", it must be in [1, " +
                             std::to_string(kMaxHausdorffSamples) + "]");
 
-  SurfaceTree reference_tree, candidate_tree;
-  if (!build_tree(reference, &reference_tree))
-    return invalid_argument("reference mesh: every face is degenerate (collinear corners)");
-  if (!build_tree(candidate, &candidate_tree))
-    return invalid_argument("candidate mesh: every face is degenerate (collinear corners)");
+  // validate_mesh's floating-point area test can miss faces CGAL finds
+  // exactly collinear.
+  const ClosestPointTree reference_tree(reference), candidate_tree(candidate);
+  if (reference_tree.empty()) return invalid_argument("reference mesh: every face is degenerate (collinear corners)");
+  if (candidate_tree.empty()) return invalid_argument("candidate mesh: every face is degenerate (collinear corners)");
 
   const DirectedStats forward = directed_distance(reference, candidate_tree, options.samples_per_mesh, options.seed);
   const DirectedStats backward = directed_distance(candidate, reference_tree, options.samples_per_mesh, options.seed);

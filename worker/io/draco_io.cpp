@@ -1,7 +1,9 @@
 // Draco (.drc), the service's wire format. Decoding goes through
 // draco::Decoder after a pre-scan of the header (below); encoding through
-// draco::ExpertEncoder with quantized positions and, optionally, a GENERIC
-// float attribute whose attribute metadata entry "name" is "saliency".
+// draco::ExpertEncoder with quantized positions, optionally a GENERIC float
+// attribute whose attribute metadata entry "name" is "saliency", and
+// optionally the vertex colors as a COLOR attribute (3 normalized uint8,
+// sRGB, as Draco's PLY reader stores PLY colors).
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -258,7 +260,8 @@ std::vector<double> quantized_absolute(const Mesh& mesh, int bits) {
 
 }  // namespace
 
-StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency) {
+StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency,
+                           const std::vector<DracoAttributeRequest>& requests) {
   VPR_RETURN_IF_ERROR(prescan_draco(data, size, limits));
   draco::DecoderBuffer buffer;
   buffer.Init(reinterpret_cast<const char*>(data), size);
@@ -312,6 +315,37 @@ StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& l
     mesh.scale = frame[3];
   }
 
+  // The first COLOR attribute of 3 or 4 components, as 8-bit sRGB.
+  const draco::PointAttribute* color = dm->GetNamedAttribute(draco::GeometryAttribute::COLOR);
+  if (color && color->num_components() >= 3) {
+    VPR_RETURN_IF_ERROR(check_numeric(*color, "color"));
+    std::vector<double> values(size_t(num_points) * 3);
+    if (!gather(*color, num_points, 3, values.data()))
+      return invalid_argument("Draco: the color attribute does not cover every point (corrupt data)");
+    // Normalized integers and floats come in [0, 1]; other integers as stored.
+    const draco::DataType t = color->data_type();
+    const bool integer = t != draco::DT_FLOAT32 && t != draco::DT_FLOAT64;
+    const double full = !integer || color->normalized()                   ? 1
+                        : (t == draco::DT_UINT16 || t == draco::DT_INT16) ? 65535
+                                                                          : 255;
+    mesh.colors.resize(values.size());
+    for (size_t i = 0; i < values.size(); ++i) mesh.colors[i] = unit_to_byte(values[i] / full);
+  }
+  for (const DracoAttributeRequest& request : requests) {
+    const draco::PointAttribute* att = dm->GetAttributeByUniqueId(uint32_t(request.unique_id));
+    if (request.unique_id < 0 || !att)
+      return invalid_argument("Draco: the stream has no attribute with unique id " + std::to_string(request.unique_id));
+    if (att->num_components() < request.components)
+      return invalid_argument("Draco: attribute " + std::to_string(request.unique_id) + " has " +
+                              std::to_string(int(att->num_components())) + " components, " +
+                              std::to_string(request.components) + " are needed");
+    VPR_RETURN_IF_ERROR(check_numeric(*att, "requested"));
+    request.out->resize(size_t(num_points) * size_t(request.components));
+    if (!gather(*att, num_points, request.components, request.out->data()))
+      return invalid_argument("Draco: attribute " + std::to_string(request.unique_id) +
+                              " does not cover every point (corrupt data)");
+  }
+
   if (saliency) {
     saliency->clear();
     const int id = dm->GetAttributeIdByMetadataEntry("name", kSaliencyName);
@@ -332,6 +366,13 @@ StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& l
 }  // namespace io_detail
 
 StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* saliency, const DracoOptions& options) {
+  return io_detail::encode_draco_stream(mesh, saliency, options, io_detail::DracoColors::kSrgb8, nullptr);
+}
+
+namespace io_detail {
+
+StatusOr<std::vector<uint8_t>> encode_draco_stream(const Mesh& mesh, const float* saliency, const DracoOptions& options,
+                                                   DracoColors color_encoding, DracoIds* ids) {
   // Draco's quantizer takes 1..30 bits (0: positions stay 32-bit floats); speeds run 0..10.
   if (options.position_bits < 0 || options.position_bits > 30)
     return invalid_argument("DracoOptions.position_bits is " + std::to_string(options.position_bits) +
@@ -387,6 +428,28 @@ StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* salie
     metadata->AddEntryString("name", io_detail::kSaliencyName);
     dm.AddAttributeMetadata(saliency_id, std::move(metadata));
   }
+  int color_id = -1;
+  if (!mesh.colors.empty()) {
+    draco::GeometryAttribute color;
+    if (color_encoding == DracoColors::kSrgb8) {
+      color.Init(draco::GeometryAttribute::COLOR, nullptr, 3, draco::DT_UINT8, true, 3, 0);
+      color_id = dm.AddAttribute(color, true, uint32_t(nv));
+      for (size_t i = 0; i < nv; ++i)
+        dm.attribute(color_id)->SetAttributeValue(draco::AttributeValueIndex(uint32_t(i)), &mesh.colors[3 * i]);
+    } else {
+      color.Init(draco::GeometryAttribute::COLOR, nullptr, 3, draco::DT_UINT16, true, 6, 0);
+      color_id = dm.AddAttribute(color, true, uint32_t(nv));
+      for (size_t i = 0; i < nv; ++i) {
+        uint16_t linear[3];
+        for (size_t c = 0; c < 3; ++c) linear[c] = linear16(mesh.colors[3 * i + c]);
+        dm.attribute(color_id)->SetAttributeValue(draco::AttributeValueIndex(uint32_t(i)), linear);
+      }
+    }
+  }
+  if (ids) {
+    auto unique = [&dm](int id) { return id < 0 ? -1 : int(dm.attribute(id)->unique_id()); };
+    *ids = {unique(position_id), unique(saliency_id), unique(color_id)};
+  }
   dm.SetNumFaces(nf);
   for (size_t f = 0; f < nf; ++f) {
     draco::Mesh::Face face;
@@ -408,5 +471,7 @@ StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* salie
   const uint8_t* bytes = reinterpret_cast<const uint8_t*>(out.data());
   return std::vector<uint8_t>(bytes, bytes + out.size());
 }
+
+}  // namespace io_detail
 
 }  // namespace vpr

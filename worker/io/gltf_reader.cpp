@@ -8,23 +8,31 @@
 // Input: every triangle primitive (mode 4, 5 or 6) of every node of the
 // default scene, with the node transforms applied in double, as one surface;
 // KHR_draco_mesh_compression primitives go through parse_draco (its pre-scan
-// included). Output: one GLB (or .gltf with the buffer as a data: URI) whose
-// node carries the mesh frame (translation = origin, scale = scale, mesh.h),
-// so the float positions are written as they are; the saliency field is the
-// vertex attribute _SALIENCY (glTF's prefix for application attributes).
+// included). Appearance (docs/formats.md, "Colors"): each vertex's color is
+// its material's baseColorFactor times its COLOR_0 (linear), and a material's
+// baseColorTexture (PNG or JPEG, from a bufferView, a data: URI or, for a
+// file on disk, a file beside it) is kept with the TEXCOORD_n it names, with
+// KHR_texture_transform applied; an image that cannot be read fails the
+// file, and images are decoded within MeshLimits::max_texture_pixels. Output: one GLB (or .gltf with the buffer as a
+// data: URI) whose node carries the mesh frame (translation = origin, scale = scale, mesh.h), so the float positions
+// are written as they are; the saliency field is the vertex attribute _SALIENCY (glTF's prefix for application
+// attributes).
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
+#include "core/color.h"
 #include "draco/compression/decode.h"
 #include "draco/core/decoder_buffer.h"
 #include "io/mesh_io.h"
 #include "io/parsers.h"
+#include "io/texture_io.h"
 
 namespace vpr {
 
@@ -108,6 +116,15 @@ bool decode_base64(std::string_view text, std::vector<uint8_t>* out) {
   return true;
 }
 
+// The bytes of a base64 data: URI; what: the element, for messages.
+Status data_uri(const std::string& uri, const std::string& what, std::vector<uint8_t>* out) {
+  const size_t comma = uri.find(";base64,");
+  if (comma == std::string::npos) return bad(what + ": only base64 data: URIs are supported");
+  if (!decode_base64(std::string_view(uri).substr(comma + 8), out))
+    return bad(what + ": the data: URI is not valid base64");
+  return Status::Ok();
+}
+
 double component(const uint8_t* p, int64_t type, bool normalized);
 
 // An accessor's elements inside its bufferView, checked to fit.
@@ -119,16 +136,32 @@ struct AccessorView {
   double at(size_t e, size_t c) const { return component(data + e * step + c * size, type, normalized); }
 };
 
+// What a primitive's material asks of its vertices' colors (glTF 2.0, 3.9.2).
+struct BaseColor {
+  double factor[3] = {1, 1, 1};  // baseColorFactor, linear RGB (alpha is not kept)
+  int64_t texture = -1;          // baseColorTexture.index, -1 for none
+  int64_t tex_coord = 0;         // n of the TEXCOORD_n it reads
+  // KHR_texture_transform as u' = t[0] u + t[1] v + t[2], v' = t[3] u + t[4] v + t[5].
+  double transform[6] = {1, 0, 0, 0, 1, 0};
+};
+
 class GltfReader {
  public:
   GltfReader(const MeshLimits& limits, const std::string* base_dir) : limits_(limits), base_dir_(base_dir) {}
 
   Status parse(const uint8_t* data, size_t size, std::vector<float>* saliency);
-  Mesh take_mesh() { return mesh_from_absolute(positions_, std::move(indices_)); }
+  Mesh take_mesh();  // after parse
 
  private:
   Status load_container(const uint8_t* data, size_t size);
   Status load_buffers();
+  Status external_file(const std::string& uri, const char* kind, size_t i, std::vector<uint8_t>* out);
+  Status base_color(const json& primitive, BaseColor* out);
+  Status texture(int64_t index, uint32_t* out);
+  Status image(int64_t index, std::shared_ptr<const RgbImage>* out);
+  Status read_vertex_values(const json& attributes, const std::string& name, size_t nv, size_t components,
+                            std::vector<float>* out);
+  Status add_appearance(const BaseColor& look, size_t nv, const std::vector<float>& rgb, const std::vector<float>& uv);
   Status view_bytes(int64_t view, Bytes* out, int64_t* stride);
   Status locate_accessor(int64_t index, bool indices, size_t components, struct AccessorView* out);
   Status walk_scene(std::vector<std::pair<int64_t, Matrix>>* instances);
@@ -145,6 +178,16 @@ class GltfReader {
   std::vector<uint32_t> indices_;
   std::vector<float> saliency_;
   bool all_have_saliency_ = true;
+  // Appearance, one entry per vertex of positions_ once a primitive needs it
+  // (the vertices before it are then white, or untextured).
+  bool colored_ = false, textured_ = false;
+  std::vector<float> linear_colors_;  // #V x 3, baseColorFactor x COLOR_0
+  std::vector<float> uvs_;            // #V x 2
+  std::vector<uint32_t> vertex_texture_;
+  std::vector<BaseColorTexture> textures_;
+  std::map<int64_t, uint32_t> texture_slot_;                   // glTF texture -> textures_
+  std::map<int64_t, std::shared_ptr<const RgbImage>> images_;  // decoded, by glTF image
+  size_t texture_pixels_ = 0;                                  // decoded so far
 };
 
 Status GltfReader::load_container(const uint8_t* data, size_t size) {
@@ -219,21 +262,11 @@ Status GltfReader::load_buffers() {
       if (!uri->is_string()) return bad("buffer " + std::to_string(i) + " has a uri that is not a string");
       const std::string& u = uri->get_ref<const std::string&>();
       if (u.rfind("data:", 0) == 0) {
-        const size_t comma = u.find(";base64,");
-        if (comma == std::string::npos) return bad("buffer " + std::to_string(i) + ": only base64 data: URIs are supported");
         owned_.emplace_back();
-        if (!decode_base64(std::string_view(u).substr(comma + 8), &owned_.back()))
-          return bad("buffer " + std::to_string(i) + ": the data: URI is not valid base64");
-      } else if (!base_dir_) {
-        return bad("buffer " + std::to_string(i) + " is the external file " + quote(u) +
-                   ", which an upload cannot carry: send a .glb with the buffers inside");
+        VPR_RETURN_IF_ERROR(data_uri(u, "buffer " + std::to_string(i), &owned_.back()));
       } else {
-        if (u.find("..") != std::string::npos || u.empty() || u[0] == '/')
-          return bad("buffer " + std::to_string(i) + ": external file " + quote(u) +
-                     " must be a relative path inside the model's folder");
-        StatusOr<std::vector<uint8_t>> file = read_file(*base_dir_ + "/" + u);
-        if (!file.ok()) return bad("external buffer " + quote(u) + " is missing or unreadable (" + file.status().message() + ")");
-        owned_.push_back(std::move(*file));
+        owned_.emplace_back();
+        VPR_RETURN_IF_ERROR(external_file(u, "buffer", i, &owned_.back()));
       }
       bytes = {owned_.back().data(), owned_.back().size()};
     }
@@ -243,6 +276,23 @@ Status GltfReader::load_buffers() {
     bytes.size = size_t(declared);
     buffers_.push_back(bytes);
   }
+  return Status::Ok();
+}
+
+// A file a uri names, beside the model on disk (never for an upload).
+// kind: "buffer" or "image", element i of its array.
+Status GltfReader::external_file(const std::string& uri, const char* kind, size_t i, std::vector<uint8_t>* out) {
+  const std::string what = std::string(kind) + " " + std::to_string(i);
+  if (!base_dir_)
+    return bad(what + " is the external file " + quote(uri) + ", which an upload cannot carry: send a .glb with the " +
+               kind + "s inside");
+  if (uri.find("..") != std::string::npos || uri.empty() || uri[0] == '/')
+    return bad(what + ": external file " + quote(uri) + " must be a relative path inside the model's folder");
+  StatusOr<std::vector<uint8_t>> file = read_file(*base_dir_ + "/" + uri);
+  if (!file.ok())
+    return bad(std::string("external ") + kind + " " + quote(uri) + " is missing or unreadable (" +
+               file.status().message() + ")");
+  *out = std::move(*file);
   return Status::Ok();
 }
 
@@ -489,11 +539,219 @@ Status GltfReader::count_primitive(const json& primitive, uint64_t* vertices, ui
   return Status::Ok();
 }
 
+// The primitive's material's base color: factor, texture, coordinates.
+Status GltfReader::base_color(const json& primitive, BaseColor* out) {
+  int64_t index = -1;
+  if (!get_index(primitive, "material", -1, &index)) return bad("a primitive has an invalid material index");
+  if (index < 0) return Status::Ok();  // the default material: white, untextured
+  const std::string name = "material " + std::to_string(index);
+  const json* material = element(root_, "materials", index);
+  if (!material) return bad(name + " does not exist");
+  auto pbr = material->find("pbrMetallicRoughness");
+  if (pbr == material->end()) return Status::Ok();
+  if (!pbr->is_object()) return bad(name + ": pbrMetallicRoughness is not an object");
+  double factor[4] = {1, 1, 1, 1};
+  if (!numbers(*pbr, "baseColorFactor", 4, factor)) return bad(name + ": baseColorFactor is not 4 numbers");
+  for (int c = 0; c < 3; ++c) out->factor[c] = std::clamp(factor[c], 0.0, 1.0);
+  auto info = pbr->find("baseColorTexture");
+  if (info == pbr->end()) return Status::Ok();
+  if (!info->is_object() || !get_index(*info, "index", -1, &out->texture) || out->texture < 0 ||
+      !get_index(*info, "texCoord", 0, &out->tex_coord))
+    return bad(name + ": baseColorTexture has no valid index or texCoord");
+  auto extensions = info->find("extensions");
+  if (extensions == info->end() || !extensions->is_object()) return Status::Ok();
+  auto transform = extensions->find("KHR_texture_transform");
+  if (transform == extensions->end()) return Status::Ok();
+  // T * R * S of the extension's specification, applied to the coordinates.
+  double offset[2] = {0, 0}, rotation = 0, scale[2] = {1, 1};
+  if (!transform->is_object() || !numbers(*transform, "offset", 2, offset) || !numbers(*transform, "scale", 2, scale) ||
+      !get_index(*transform, "texCoord", out->tex_coord, &out->tex_coord))
+    return bad(name + ": KHR_texture_transform is malformed");
+  auto angle = transform->find("rotation");
+  if (angle != transform->end()) {
+    if (!angle->is_number()) return bad(name + ": KHR_texture_transform.rotation is not a number");
+    rotation = angle->get<double>();
+  }
+  const double c = std::cos(rotation), s = std::sin(rotation);
+  const double t[6] = {c * scale[0], s * scale[1], offset[0], -s * scale[0], c * scale[1], offset[1]};
+  std::copy(t, t + 6, out->transform);
+  return Status::Ok();
+}
+
+// glTF texture `index` as a slot of textures_ (decoded once however many
+// materials use it).
+Status GltfReader::texture(int64_t index, uint32_t* out) {
+  if (auto found = texture_slot_.find(index); found != texture_slot_.end()) {
+    *out = found->second;
+    return Status::Ok();
+  }
+  const std::string name = "texture " + std::to_string(index);
+  const json* t = element(root_, "textures", index);
+  if (!t) return bad(name + " does not exist");
+  int64_t source = -1, sampler = -1;
+  if (!get_index(*t, "source", -1, &source) || !get_index(*t, "sampler", -1, &sampler))
+    return bad(name + " has an invalid source or sampler index");
+  if (source < 0)
+    return bad(name +
+               " has no PNG or JPEG image (an image only an extension names, such as KHR_texture_basisu's "
+               "or EXT_texture_webp's, is not read)");
+  BaseColorTexture texture;
+  if (sampler >= 0) {
+    const json* settings = element(root_, "samplers", sampler);
+    if (!settings) return bad("sampler " + std::to_string(sampler) + " does not exist");
+    int64_t wrap[2] = {10497, 10497};
+    TextureWrap* modes[2] = {&texture.wrap_u, &texture.wrap_v};
+    for (int a = 0; a < 2; ++a) {
+      const char* key = a == 0 ? "wrapS" : "wrapT";
+      if (!get_index(*settings, key, 10497, &wrap[a]))
+        return bad("sampler " + std::to_string(sampler) + ": invalid " + key);
+      if (wrap[a] == 10497)
+        *modes[a] = TextureWrap::kRepeat;
+      else if (wrap[a] == 33071)
+        *modes[a] = TextureWrap::kClampToEdge;
+      else if (wrap[a] == 33648)
+        *modes[a] = TextureWrap::kMirroredRepeat;
+      else
+        return bad("sampler " + std::to_string(sampler) + ": " + key + " " + std::to_string(wrap[a]) +
+                   " is not a wrap mode (10497, 33071 or 33648)");
+    }
+  }
+  VPR_RETURN_IF_ERROR(image(source, &texture.image));
+  *out = uint32_t(textures_.size());
+  textures_.push_back(std::move(texture));
+  texture_slot_[index] = *out;
+  return Status::Ok();
+}
+
+// glTF image `index`, decoded once, within the texture pixel budget.
+Status GltfReader::image(int64_t index, std::shared_ptr<const RgbImage>* out) {
+  if (auto found = images_.find(index); found != images_.end()) {
+    *out = found->second;
+    return Status::Ok();
+  }
+  const std::string name = "image " + std::to_string(index);
+  const json* entry = element(root_, "images", index);
+  if (!entry) return bad(name + " does not exist");
+  int64_t view = -1;
+  if (!get_index(*entry, "bufferView", -1, &view)) return bad(name + " has an invalid bufferView");
+  std::vector<uint8_t> owned;
+  Bytes bytes;
+  auto uri = entry->find("uri");
+  if (view >= 0) {
+    int64_t stride = 0;
+    VPR_RETURN_IF_ERROR(view_bytes(view, &bytes, &stride));
+  } else if (uri != entry->end() && uri->is_string()) {
+    const std::string& u = uri->get_ref<const std::string&>();
+    if (u.rfind("data:", 0) == 0)
+      VPR_RETURN_IF_ERROR(data_uri(u, name, &owned));
+    else
+      VPR_RETURN_IF_ERROR(external_file(u, "image", size_t(index), &owned));
+    bytes = {owned.data(), owned.size()};
+  } else {
+    return bad(name + " has neither a bufferView nor a uri");
+  }
+  StatusOr<RgbImage> decoded =
+      decode_texture(bytes.data, bytes.size, kMaxTextureSide, limits_.max_texture_pixels - texture_pixels_);
+  if (!decoded.ok()) {
+    std::string message = "glTF: " + name + ": " + decoded.status().message();
+    if (decoded.status().code() == StatusCode::kResourceExhausted && texture_pixels_ > 0)
+      message += " (the file's other textures took " + std::to_string(texture_pixels_) + " of " +
+                 std::to_string(limits_.max_texture_pixels) + ")";
+    return Status(decoded.status().code(), message);
+  }
+  texture_pixels_ += decoded->pixels.size();
+  auto shared = std::make_shared<const RgbImage>(std::move(*decoded));
+  images_[index] = shared;
+  *out = std::move(shared);
+  return Status::Ok();
+}
+
+// Attribute `name` of a plain primitive (COLOR_0, TEXCOORD_n: float, or
+// unsigned byte or short normalized) as `components` floats a vertex; VEC4
+// colors lose alpha. out is left empty when the attribute is absent.
+Status GltfReader::read_vertex_values(const json& attributes, const std::string& name, size_t nv, size_t components,
+                                      std::vector<float>* out) {
+  out->clear();
+  int64_t index = -1;
+  if (!attributes.is_object() || !get_index(attributes, name.c_str(), -1, &index))
+    return bad(name + " is not a valid accessor index");
+  if (index < 0) return Status::Ok();
+  const json* a = element(root_, "accessors", index);
+  auto type = a ? a->find("type") : json::const_iterator();
+  const size_t stored = a && type != a->end() && type->is_string() ? type_components(type->get<std::string>()) : 0;
+  if (stored != components && !(components == 3 && stored == 4))
+    return bad("accessor " + std::to_string(index) + " (" + name + ") is not " +
+               (components == 3 ? "VEC3 or VEC4" : "VEC2"));
+  AccessorView view;
+  VPR_RETURN_IF_ERROR(locate_accessor(index, false, stored, &view));
+  if (view.type != 5126 && view.type != 5121 && view.type != 5123)
+    return bad("accessor " + std::to_string(index) + " (" + name + ") has componentType " + std::to_string(view.type) +
+               ", expected float, unsigned byte or unsigned short");
+  if (view.count != nv)
+    return bad(name + " has " + std::to_string(view.count) + " elements for the primitive's " + std::to_string(nv) +
+               " vertices");
+  view.normalized = view.type != 5126;  // integers are normalized here (glTF 2.0, 3.7.2.1)
+  out->resize(nv * components);
+  for (size_t v = 0; v < nv; ++v)
+    for (size_t c = 0; c < components; ++c) (*out)[v * components + c] = float(view.at(v, c));
+  return Status::Ok();
+}
+
+// Appends a primitive's nv vertex colors (factor x COLOR_0) and texture
+// coordinates, before its positions are appended.
+Status GltfReader::add_appearance(const BaseColor& look, size_t nv, const std::vector<float>& rgb,
+                                  const std::vector<float>& uv) {
+  const size_t before = positions_.size() / 3;
+  const bool tinted = !rgb.empty() || look.factor[0] != 1 || look.factor[1] != 1 || look.factor[2] != 1;
+  if (tinted && !colored_) {
+    colored_ = true;
+    linear_colors_.assign(3 * before, 1.0f);
+  }
+  if (colored_)
+    for (size_t v = 0; v < nv; ++v)
+      for (size_t c = 0; c < 3; ++c)
+        linear_colors_.push_back(
+            float(look.factor[c] * (rgb.empty() ? 1.0 : std::clamp(double(rgb[3 * v + c]), 0.0, 1.0))));
+  uint32_t slot = MeshTextures::kNone;
+  if (look.texture >= 0) VPR_RETURN_IF_ERROR(texture(look.texture, &slot));
+  if (slot != MeshTextures::kNone && !textured_) {
+    textured_ = true;
+    uvs_.assign(2 * before, 0.0f);
+    vertex_texture_.assign(before, MeshTextures::kNone);
+  }
+  if (!textured_) return Status::Ok();
+  const double* t = look.transform;
+  for (size_t v = 0; v < nv; ++v) {
+    const double u = slot == MeshTextures::kNone ? 0 : uv[2 * v], w = slot == MeshTextures::kNone ? 0 : uv[2 * v + 1];
+    // A transform may take coordinates beyond the float range (+-inf then; the sampler reads those as 0).
+    uvs_.push_back(to_float(t[0] * u + t[1] * w + t[2]));
+    uvs_.push_back(to_float(t[3] * u + t[4] * w + t[5]));
+    vertex_texture_.push_back(slot);
+  }
+  return Status::Ok();
+}
+
+Mesh GltfReader::take_mesh() {
+  Mesh mesh = mesh_from_absolute(positions_, std::move(indices_));
+  mesh.colors.resize(linear_colors_.size());
+  for (size_t i = 0; i < linear_colors_.size(); ++i) mesh.colors[i] = srgb_from_linear(linear_colors_[i]);
+  if (!textures_.empty()) {
+    mesh.textures.uvs = std::move(uvs_);
+    mesh.textures.vertex_texture = std::move(vertex_texture_);
+    mesh.textures.textures = std::move(textures_);
+  }
+  return mesh;
+}
+
 Status GltfReader::add_primitive(const json& primitive, const Matrix& m, std::vector<float>* want_saliency) {
   std::vector<double> local;  // #V x 3, the primitive's own frame
   std::vector<uint32_t> corners;
   std::vector<float> saliency;
   bool has_saliency = false;
+  BaseColor look;
+  VPR_RETURN_IF_ERROR(base_color(primitive, &look));
+  const std::string uv_name = "TEXCOORD_" + std::to_string(look.tex_coord);
+  std::vector<float> rgb, uv;  // COLOR_0 (#V x 3) and the texture's coordinates (#V x 2), when present
   const json* extensions = primitive.contains("extensions") ? &primitive["extensions"] : nullptr;
   if (extensions && extensions->is_object() && extensions->contains(kDracoExtension)) {
     const json& ext = (*extensions)[kDracoExtension];
@@ -503,8 +761,21 @@ Status GltfReader::add_primitive(const json& primitive, const Matrix& m, std::ve
     Bytes bytes;
     VPR_RETURN_IF_ERROR(view_bytes(view, &bytes, &stride));
     MeshLimits remaining{limits_.max_vertices - positions_.size() / 3, limits_.max_faces - indices_.size() / 3};
+    // The extension names the Draco attributes of COLOR_0 and TEXCOORD_n by unique id.
+    std::vector<DracoAttributeRequest> requests;
+    auto ids = ext.find("attributes");
+    auto request = [&](const std::string& name, int components, std::vector<float>* out) -> Status {
+      int64_t id = -1;
+      if (ids == ext.end() || !ids->is_object() || !get_index(*ids, name.c_str(), -1, &id) || id > INT32_MAX)
+        return bad(std::string(kDracoExtension) + ": the id of " + name + " is not a valid attribute id");
+      if (id >= 0) requests.push_back({int(id), components, out});
+      return Status::Ok();
+    };
+    VPR_RETURN_IF_ERROR(request("COLOR_0", 3, &rgb));
+    if (look.texture >= 0) VPR_RETURN_IF_ERROR(request(uv_name, 2, &uv));
     std::vector<float> draco_saliency;
-    StatusOr<Mesh> decoded = parse_draco(bytes.data, bytes.size, remaining, want_saliency ? &draco_saliency : nullptr);
+    StatusOr<Mesh> decoded =
+        parse_draco(bytes.data, bytes.size, remaining, want_saliency ? &draco_saliency : nullptr, requests);
     if (!decoded.ok()) return Status(decoded.status().code(), "glTF: the Draco-compressed primitive: " + decoded.status().message());
     local.resize(decoded->positions.size());
     for (size_t v = 0; v < decoded->vertex_count(); ++v)
@@ -553,6 +824,8 @@ Status GltfReader::add_primitive(const json& primitive, const Matrix& m, std::ve
           corners.insert(corners.end(), {raw[0], raw[i - 1], raw[i]});
       }
     }
+    VPR_RETURN_IF_ERROR(read_vertex_values(attributes, "COLOR_0", nv, 3, &rgb));
+    if (look.texture >= 0) VPR_RETURN_IF_ERROR(read_vertex_values(attributes, uv_name, nv, 2, &uv));
     int64_t sal = -1;
     if (want_saliency && attributes.is_object() && get_index(attributes, kSaliencyAttribute, -1, &sal) && sal >= 0) {
       AccessorView values;
@@ -571,6 +844,9 @@ Status GltfReader::add_primitive(const json& primitive, const Matrix& m, std::ve
   if (indices_.size() / 3 + corners.size() / 3 > limits_.max_faces)
     return resource_exhausted("glTF: the primitives hold more than " + std::to_string(limits_.max_faces) +
                               " triangles (the limit is " + std::to_string(limits_.max_faces) + ")");
+  if (look.texture >= 0 && uv.size() != 2 * nv)
+    return bad("a primitive whose material has a base-color texture has no " + uv_name + " for it");
+  VPR_RETURN_IF_ERROR(add_appearance(look, nv, rgb, uv));
   const uint32_t base = uint32_t(positions_.size() / 3);
   for (size_t v = 0; v < nv; ++v) {
     const double* p = &local[3 * v];

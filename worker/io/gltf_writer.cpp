@@ -2,8 +2,9 @@
 // libdraco): one GLB, or .gltf with the buffer as a data: URI, whose node
 // carries the mesh frame (translation = origin, scale = scale, mesh.h), so
 // the float positions are written as they are; the saliency field is the
-// vertex attribute _SALIENCY (glTF's prefix for application attributes),
-// and the primitive is Draco-compressed (KHR_draco_mesh_compression) when asked.
+// vertex attribute _SALIENCY (glTF's prefix for application attributes), the
+// colors are COLOR_0 (linear, unsigned 16-bit normalized), and the primitive
+// is Draco-compressed (KHR_draco_mesh_compression) when asked.
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -71,8 +72,11 @@ StatusOr<std::vector<uint8_t>> encode_gltf(const Mesh& mesh, const float* salien
                    {"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}};
   json index = {{"componentType", 5125}, {"count", 3 * nf}, {"type", "SCALAR"}};
   json value = {{"componentType", 5126}, {"count", nv}, {"type", "SCALAR"}};
+  json color = {{"componentType", 5123}, {"normalized", true}, {"count", nv}, {"type", "VEC3"}};
+  const bool colors = !mesh.colors.empty();
   json primitive = {{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"mode", 4}};
   if (saliency) primitive["attributes"][kSaliencyAttributeName] = 2;
+  if (colors) primitive["attributes"]["COLOR_0"] = saliency ? 3 : 2;
   json views = json::array();
   std::vector<uint8_t> bin;
   // Lossless output (position_bits 0) stays uncompressed: the extension
@@ -82,19 +86,20 @@ StatusOr<std::vector<uint8_t>> encode_gltf(const Mesh& mesh, const float* salien
     Mesh relative = mesh;
     relative.origin = {0, 0, 0};
     relative.scale = 1;
-    VPR_ASSIGN_OR_RETURN(bin, encode_draco(relative, saliency, options));
+    io_detail::DracoIds ids;
+    VPR_ASSIGN_OR_RETURN(
+        bin, io_detail::encode_draco_stream(relative, saliency, options, io_detail::DracoColors::kLinear16, &ids));
     // Edgebreaker may drop degenerate faces: the accessors give what decodes.
     std::vector<float> decoded_saliency;
     StatusOr<Mesh> decoded = io_detail::parse_draco(bin.data(), bin.size(), MeshLimits{}, nullptr);
     if (!decoded.ok()) return internal_error("glTF: the Draco primitive written does not decode: " + decoded.status().message());
-    position["count"] = decoded->vertex_count();
-    value["count"] = decoded->vertex_count();
+    for (json* accessor : {&position, &value, &color}) (*accessor)["count"] = decoded->vertex_count();
     index["count"] = 3 * decoded->face_count();
     views.push_back({{"buffer", 0}, {"byteOffset", 0}, {"byteLength", bin.size()}});
-    // Draco's unique attribute ids: encode_draco adds positions first, then saliency.
-    json ids = {{"POSITION", 0}};
-    if (saliency) ids[kSaliencyAttributeName] = 1;
-    primitive["extensions"] = {{kDracoExtensionName, {{"bufferView", 0}, {"attributes", ids}}}};
+    json attributes = {{"POSITION", ids.position}};
+    if (saliency) attributes[kSaliencyAttributeName] = ids.saliency;
+    if (colors) attributes["COLOR_0"] = ids.color;
+    primitive["extensions"] = {{kDracoExtensionName, {{"bufferView", 0}, {"attributes", attributes}}}};
   } else {
     append_floats(mesh.positions.data(), 3 * nv, &bin);
     views.push_back({{"buffer", 0}, {"byteOffset", 0}, {"byteLength", bin.size()}, {"target", 34962}});
@@ -108,12 +113,28 @@ StatusOr<std::vector<uint8_t>> encode_gltf(const Mesh& mesh, const float* salien
       const size_t at = bin.size();
       append_floats(saliency, nv, &bin);
       views.push_back({{"buffer", 0}, {"byteOffset", at}, {"byteLength", 4 * nv}, {"target", 34962}});
-      value["bufferView"] = 2;
+      value["bufferView"] = views.size() - 1;
+    }
+    if (colors) {
+      // 6 bytes a vertex, strided to 8: vertex attributes start on 4-byte
+      // boundaries (glTF 2.0, 3.6.2.4).
+      const size_t at = bin.size();
+      bin.resize(at + 8 * nv, 0);
+      for (size_t v = 0; v < nv; ++v)
+        for (size_t c = 0; c < 3; ++c) {
+          const uint16_t linear = io_detail::linear16(mesh.colors[3 * v + c]);
+          bin[at + 8 * v + 2 * c] = uint8_t(linear);
+          bin[at + 8 * v + 2 * c + 1] = uint8_t(linear >> 8);
+        }
+      views.push_back(
+          {{"buffer", 0}, {"byteOffset", at}, {"byteLength", 8 * nv}, {"byteStride", 8}, {"target", 34962}});
+      color["bufferView"] = views.size() - 1;
     }
   }
   pad4(&bin, 0);
   json accessors = {position, index};
   if (saliency) accessors.push_back(value);
+  if (colors) accessors.push_back(color);
   json root = {{"asset", {{"version", "2.0"}, {"generator", "vpremesh"}}},
                {"scene", 0},
                {"scenes", {{{"nodes", {0}}}}},

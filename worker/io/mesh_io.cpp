@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <new>
 
+#include "core/color.h"
 #include "io/parsers.h"
 
 namespace vpr {
@@ -152,6 +153,16 @@ bool parse_int(std::string_view token, int64_t* out) {
   return ec == std::errc() && ptr == e;
 }
 
+uint16_t linear16(uint8_t srgb) {
+  return uint16_t(std::lround(double(srgb_to_linear(srgb)) * 65535));
+}
+
+uint8_t unit_to_byte(double value) {
+  if (!(value > 0)) return 0;
+  if (value >= 1) return 255;
+  return uint8_t(std::lround(value * 255));
+}
+
 std::string quote(std::string_view token) {
   constexpr size_t kMaxShown = 32;
   std::string out = "'";
@@ -241,6 +252,9 @@ Status check_writable(const Mesh& mesh, const float* saliency) {
         return invalid_argument("cannot write: saliency of vertex " + std::to_string(i) + " is not finite");
     }
   }
+  if (!mesh.colors.empty() && mesh.colors.size() != 3 * nv)
+    return invalid_argument("cannot write " + std::to_string(mesh.colors.size()) + " color bytes for " +
+                            std::to_string(nv) + " vertices (3 per vertex are needed)");
   return Status::Ok();
 }
 

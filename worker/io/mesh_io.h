@@ -4,7 +4,10 @@
 // binary), OFF and STL (ASCII and binary). Polygons are triangulated as fans;
 // soups are kept as they are (STL corners at exactly the same position are
 // merged, first occurrence first). Output: .drc, .glb, .gltf, .ply, .obj, with
-// an optional per-vertex saliency value.
+// an optional per-vertex saliency value. Vertex colors are read from PLY,
+// OBJ, OFF, Draco and glTF, base-color textures from glTF (mesh.h, Mesh::
+// colors and textures), and mesh.colors are written to every output format;
+// docs/formats.md, "Colors", has the details.
 #pragma once
 
 #include <cstdint>
@@ -53,10 +56,13 @@ struct DracoOptions {
 
 // saliency: nullptr or #V floats in [0, 1]. Draco stores it as a GENERIC
 // attribute whose metadata name is "saliency"; PLY as a vertex property
-// "saliency" plus red/green/blue from a color ramp; OBJ as vertex colors.
+// "saliency"; PLY and OBJ, when the mesh has no colors, also as vertex
+// colors from a color ramp. mesh.colors: Draco's COLOR attribute (3 uint8,
+// normalized, sRGB), PLY red/green/blue uchar, OBJ "v x y z r g b".
 StatusOr<std::vector<uint8_t>> encode_draco(const Mesh& mesh, const float* saliency, const DracoOptions& options);
 // glTF 2.0: one node holding the mesh frame (translation = origin, scale),
-// one triangle primitive; saliency as the float vertex attribute _SALIENCY.
+// one triangle primitive; saliency as the float vertex attribute _SALIENCY,
+// colors as COLOR_0 (VEC3, linear, unsigned short normalized).
 // binary: GLB, else JSON with the buffer as a base64 data: URI.
 StatusOr<std::vector<uint8_t>> encode_gltf(const Mesh& mesh, const float* saliency, const DracoOptions& options,
                                            bool binary);

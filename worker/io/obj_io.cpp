@@ -1,6 +1,9 @@
 // Wavefront OBJ: "v x y z [w | r g b]" and "f" lines whose tokens are v,
 // v/vt, v//vn or v/vt/vn, 1-based or negative (relative to the vertices read
-// so far). Polygons become triangle fans; every other line is ignored.
+// so far). Polygons become triangle fans; every other line is ignored. Colors
+// (r g b in [0, 1], clamped: the common extension MeshLab and others write)
+// are kept when any vertex has them; vertices without are white. Materials
+// and their textures (mtllib, usemtl, vt) are not read.
 #include <charconv>
 #include <cstring>
 #include <string>
@@ -45,14 +48,19 @@ StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& lim
   const char* end = begin + size;
   if (size >= 3 && std::memcmp(begin, "\xEF\xBB\xBF", 3) == 0) begin += 3;  // UTF-8 byte order mark
 
-  Mesh mesh;                      // faces; positions come from `positions` at the end
+  Mesh mesh;                      // faces and colors; positions come from `positions` at the end
   std::vector<double> positions;  // as written, in double
+  bool saliency_ramp = false;     // the colors are our writer's saliency ramp: not read
   LineReader lines(begin, end);
   std::string_view line;
   while (lines.next(&line)) {
     std::string_view rest = line;
     const std::string_view key = next_token(&rest);
-    if (key == "v") {
+    if (!key.empty() && key[0] == '#' && line.find("vpremesh") != std::string_view::npos &&
+        line.find(kSaliencyRampNote) != std::string_view::npos) {
+      saliency_ramp = true;
+      mesh.colors.clear();
+    } else if (key == "v") {
       double xyz[3];
       for (int k = 0; k < 3; ++k) {
         const std::string_view token = next_token(&rest);
@@ -63,11 +71,24 @@ StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& lim
           return invalid_argument(at_line(lines.line_number()) + "vertex coordinate " + quote(token) +
                                   " is not a number");
       }
-      // A fourth w or r g b colors may follow; they do not change the position.
       if (positions.size() / 3 >= limits.max_vertices)
         return resource_exhausted(at_line(lines.line_number()) + "the file has more than " +
                                   std::to_string(limits.max_vertices) + " vertices (the limit is " +
                                   std::to_string(limits.max_vertices) + ")");
+      // A fourth w, or r g b, may follow; three numbers and nothing else are colors.
+      std::string_view extra[4];
+      int n = 0;
+      for (std::string_view token = next_token(&rest); !token.empty() && n < 4; token = next_token(&rest))
+        extra[n++] = token;
+      double rgb[3];
+      const bool has_color = n == 3 && parse_double(extra[0], &rgb[0]) && parse_double(extra[1], &rgb[1]) &&
+                             parse_double(extra[2], &rgb[2]);
+      if (has_color && !saliency_ramp) {
+        if (mesh.colors.empty()) mesh.colors.assign(positions.size(), 255);  // white so far
+        for (double c : rgb) mesh.colors.push_back(unit_to_byte(c));
+      } else if (!mesh.colors.empty()) {
+        mesh.colors.insert(mesh.colors.end(), {255, 255, 255});
+      }
       positions.insert(positions.end(), xyz, xyz + 3);
     } else if (key == "f") {
       const int64_t nv = int64_t(positions.size() / 3);
@@ -104,17 +125,22 @@ StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& lim
                                 " vertices, at least 3 are needed");
     }
   }
-  return mesh_from_absolute(positions, std::move(mesh.indices));
+  Mesh out = mesh_from_absolute(positions, std::move(mesh.indices));
+  out.colors = std::move(mesh.colors);
+  return out;
 }
 
 std::vector<uint8_t> encode_obj(const Mesh& mesh, const float* saliency) {
   std::string out;
-  out.reserve(mesh.vertex_count() * (saliency ? 64 : 36) + mesh.face_count() * 24 + 64);
+  // Real colors when the mesh has them; else, with saliency, its color ramp.
+  const bool ramp = saliency && mesh.colors.empty();
+  const bool colors = ramp || !mesh.colors.empty();
+  out.reserve(mesh.vertex_count() * (colors ? 64 : 36) + mesh.face_count() * 24 + 64);
   out += "# vpremesh: ";
   append_uint(&out, mesh.vertex_count());
   out += " vertices, ";
   append_uint(&out, mesh.face_count());
-  out += saliency ? " triangles, vertex colors show saliency\n" : " triangles\n";
+  out += ramp ? std::string(" triangles, ") + kSaliencyRampNote + "\n" : std::string(" triangles\n");
   // Floats where they hold the model to 1e-6 of its size, else the origin
   // plus the relative float in double, as many digits as that takes.
   const bool as_float = absolute_fits_float(mesh);
@@ -128,9 +154,12 @@ std::vector<uint8_t> encode_obj(const Mesh& mesh, const float* saliency) {
       else
         append_double(&out, mesh.absolute(i, a));
     }
-    if (saliency) {
+    if (colors) {
       uint8_t rgb[3];
-      saliency_color(saliency[i], rgb);
+      if (ramp)
+        saliency_color(saliency[i], rgb);
+      else
+        std::memcpy(rgb, &mesh.colors[3 * i], 3);
       for (uint8_t c : rgb) {
         out += ' ';
         append_float(&out, float(c) / 255.0f);

@@ -1,8 +1,12 @@
 // Object File Format (ASCII): an optional [ST][C][N][n]OFF keyword, the counts
 // "#V #F [#E]" (on the keyword's line or the next), #V vertex lines whose first
-// three numbers are the position (normals, colors, texture coordinates after
-// them are ignored), then #F lines "n i0 .. i(n-1) [color]" triangulated as
-// fans. '#' starts a comment anywhere; blank lines are skipped.
+// three numbers are the position, then #F lines "n i0 .. i(n-1) [color]"
+// triangulated as fans. '#' starts a comment anywhere; blank lines are
+// skipped. With C in the keyword, the vertex colors after the position (and
+// the normal, with N) are read: r g b [a], integers in 0..255 or numbers with
+// a point in [0, 1] (Geomview's two forms); a vertex with another form of
+// color (a colormap index) is white. Normals, texture coordinates and face
+// colors are ignored.
 #include <algorithm>
 #include <cstring>
 #include <string>
@@ -49,6 +53,29 @@ bool is_off_keyword(std::string_view token) {
   return true;
 }
 
+// The color on a COFF vertex line after the position: white unless it is
+// r g b [a] in one of Geomview's forms.
+void read_vertex_color(std::string_view rest, bool normals, bool texture_coordinates, std::vector<uint8_t>* colors) {
+  std::string_view token[9];
+  size_t n = 0;
+  for (std::string_view t = next_token(&rest); !t.empty() && n < 9; t = next_token(&rest)) token[n++] = t;
+  const size_t skip = normals ? 3 : 0;
+  const size_t count = n >= skip + (texture_coordinates ? 2 : 0) ? n - skip - (texture_coordinates ? 2 : 0) : 0;
+  uint8_t rgb[3] = {255, 255, 255};
+  if (count == 3 || count == 4) {
+    int64_t whole[3];
+    double unit[3];
+    bool integers = true, numbers = true;
+    for (size_t c = 0; c < 3; ++c) {
+      integers = integers && parse_int(token[skip + c], &whole[c]);
+      numbers = numbers && parse_double(token[skip + c], &unit[c]);
+    }
+    for (size_t c = 0; c < 3 && numbers; ++c)
+      rgb[c] = integers ? unit_to_byte(double(whole[c]) / 255) : unit_to_byte(unit[c]);
+  }
+  colors->insert(colors->end(), rgb, rgb + 3);
+}
+
 }  // namespace
 
 StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& limits) {
@@ -62,8 +89,12 @@ StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& lim
     return invalid_argument("OFF: the file has no header and no counts (only blanks or comments)");
   std::string_view rest = line;
   std::string_view first = next_token(&rest);
+  bool colors = false, normals = false, texture_coordinates = false;
   if (is_off_keyword(first)) {
     const std::string_view prefix = first.substr(0, first.size() - 3);
+    colors = prefix.find('C') != std::string_view::npos;
+    normals = prefix.find('N') != std::string_view::npos;
+    texture_coordinates = prefix.find("ST") != std::string_view::npos;
     if (prefix.find('4') != std::string_view::npos)
       return invalid_argument(at_line(lines.line_number()) + quote(first) + ": 4D vertices are not supported");
     if (trim(rest).substr(0, 6) == "BINARY")
@@ -119,6 +150,7 @@ StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& lim
                                 " is not a number");
       positions.push_back(v);
     }
+    if (colors) read_vertex_color(rest, normals, texture_coordinates, &mesh.colors);
   }
   for (uint64_t i = 0; i < nf; ++i) {
     if (!lines.next(&line))
@@ -150,7 +182,9 @@ StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& lim
     }
     // Anything after the indices is a face color; ignored.
   }
-  return mesh_from_absolute(positions, std::move(mesh.indices));
+  Mesh out = mesh_from_absolute(positions, std::move(mesh.indices));
+  out.colors = std::move(mesh.colors);
+  return out;
 }
 
 }  // namespace vpr::io_detail

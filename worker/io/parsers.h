@@ -14,23 +14,57 @@
 
 #include "core/mesh.h"
 #include "core/status.h"
+#include "io/mesh_io.h"
 
 namespace vpr::io_detail {
 
 // glTF names the reader and the writer share.
 inline constexpr const char* kSaliencyAttributeName = "_SALIENCY";  // glTF's prefix for application attributes
 inline constexpr const char* kDracoExtensionName = "KHR_draco_mesh_compression";
+// In a PLY comment or an OBJ comment that starts with "vpremesh": the file's
+// vertex colors are the saliency ramp our writers draw (no input had colors),
+// which readers leave out rather than take for the model's colors.
+inline constexpr const char* kSaliencyRampNote = "vertex colors show saliency";
 
-// saliency (may be nullptr): receives the per-vertex "saliency" values when
-// the file carries them (PLY vertex property, Draco attribute), else is cleared.
+// Every parser fills mesh.colors (and the glTF reader mesh.textures) when the
+// file has them (docs/formats.md, "Colors"). saliency (may be nullptr):
+// receives the per-vertex "saliency" values when the file carries them (PLY
+// vertex property, Draco attribute), else is cleared.
 StatusOr<Mesh> parse_obj(const uint8_t* data, size_t size, const MeshLimits& limits);
 StatusOr<Mesh> parse_ply(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency);
 StatusOr<Mesh> parse_off(const uint8_t* data, size_t size, const MeshLimits& limits);
 StatusOr<Mesh> parse_stl(const uint8_t* data, size_t size, const MeshLimits& limits);
-StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency);
+
+// An attribute of a Draco stream by its unique id (KHR_draco_mesh_compression
+// names COLOR_0 and TEXCOORD_n so): out receives `components` values per
+// point, normalized integers in [0, 1] and other values as they are; a
+// missing id, or one with fewer components, is INVALID_ARGUMENT.
+struct DracoAttributeRequest {
+  int unique_id = -1;
+  int components = 0;
+  std::vector<float>* out = nullptr;
+};
+// A .drc file's first COLOR attribute becomes mesh.colors (stored 8-bit
+// sRGB, as Draco's own PLY and OBJ readers store them).
+StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency,
+                           const std::vector<DracoAttributeRequest>& requests = {});
 // base_dir: the folder external buffers are read from; nullptr refuses them.
 StatusOr<Mesh> parse_gltf(const uint8_t* data, size_t size, const MeshLimits& limits, std::vector<float>* saliency,
                           const std::string* base_dir);
+
+// Vertex colors as a Draco stream stores them: 8-bit sRGB (a .drc file) or
+// linear unsigned 16-bit normalized (glTF's COLOR_0 is linear, glTF 2.0
+// 3.7.2.1; 16 bits keep every sRGB byte apart, 8 would merge the darks).
+enum class DracoColors { kSrgb8, kLinear16 };
+// A color byte as a linear 16-bit value.
+uint16_t linear16(uint8_t srgb);
+// The unique ids encode_draco_stream gave its attributes; -1 when absent.
+struct DracoIds {
+  int position = -1, saliency = -1, color = -1;
+};
+// encode_draco (mesh_io.h) with the colors in the given encoding.
+StatusOr<std::vector<uint8_t>> encode_draco_stream(const Mesh& mesh, const float* saliency, const DracoOptions& options,
+                                                   DracoColors colors, DracoIds* ids);
 
 // ---- Shared text scanning (implemented in mesh_io.cpp) ----------------------
 
@@ -88,6 +122,9 @@ float to_float(double v);
 // The whole token must be a decimal integer (leading '+' or '-' allowed).
 bool parse_int(std::string_view token, int64_t* out);
 
+// A color channel in [0, 1] as a byte: clamped, rounded, NaN gives 0.
+uint8_t unit_to_byte(double value);
+
 // Token for messages: quoted, cut to 32 characters, non-printable bytes escaped.
 std::string quote(std::string_view token);
 
@@ -98,14 +135,18 @@ Status push_fan_triangle(Mesh& mesh, uint32_t first, uint32_t prev, uint32_t v, 
 
 // ---- Writers and files (encode_* in their format's file, files in mesh_io.cpp)
 
-// Binary little-endian PLY: x y z float [saliency float, red green blue uchar],
+// Binary little-endian PLY: x y z float [saliency float] [red green blue uchar],
 // faces as "list uchar uint vertex_indices". saliency: nullptr or #V floats.
+// Colors are mesh.colors, or else, with saliency, saliency_color's ramp
+// (and the comment kSaliencyRampNote).
 std::vector<uint8_t> encode_ply(const Mesh& mesh, const float* saliency);
-// "v x y z [r g b]" (colors in 0..1 from saliency_color) and "f a b c", 1-based.
+// "v x y z [r g b]" and "f a b c", 1-based; colors in 0..1, from mesh.colors
+// or else, with saliency, from saliency_color (noted in the first comment).
 std::vector<uint8_t> encode_obj(const Mesh& mesh, const float* saliency);
 
 // INVALID_ARGUMENT for what would crash an encoder or make an unreadable file:
-// ragged arrays, indices out of range, non-finite positions or saliency.
+// ragged arrays, indices out of range, non-finite positions or saliency,
+// colors that are not 3 bytes per vertex.
 Status check_writable(const Mesh& mesh, const float* saliency);
 
 // NOT_FOUND when the file is missing; RESOURCE_EXHAUSTED when it cannot be held.

@@ -1,6 +1,8 @@
 // Stanford PLY: ascii, binary_little_endian and binary_big_endian. The vertex
 // element gives x, y, z (any scalar type, among any other properties, lists
-// included) and optionally "saliency"; the face element gives a list named
+// included) and optionally "saliency" and colors red, green, blue (or
+// diffuse_red, ...: uchar as they are, ushort over 65535, float and double in
+// [0, 1], other integers clamped to 0..255); the face element gives a list named
 // vertex_indices or vertex_index (any count and index types), triangulated as
 // a fan. Every other element is skipped.
 #include <algorithm>
@@ -78,6 +80,7 @@ struct PlyHeader {
   std::vector<PlyElement> elements;
   size_t body_offset = 0;  // bytes from the start of the data
   size_t body_line = 0;    // line number of the first body line (ASCII messages)
+  bool saliency_ramp = false;  // the colors are our writer's saliency ramp (kSaliencyRampNote)
 };
 
 std::string header_line(size_t line) {
@@ -96,6 +99,9 @@ StatusOr<PlyHeader> parse_ply_header(const char* begin, const char* end, const M
     const size_t n = lines.line_number();
     std::string_view rest = line;
     const std::string_view key = next_token(&rest);
+    if (key == "comment" && rest.find("vpremesh") != std::string_view::npos &&
+        rest.find(kSaliencyRampNote) != std::string_view::npos)
+      header.saliency_ramp = true;
     if (key.empty() || key == "comment" || key == "obj_info") continue;
     if (key == "end_header") {
       header.body_offset = size_t(lines.position() - begin);
@@ -326,6 +332,19 @@ Status read_property(Source& src, const PlyElement& e, const PlyProperty& p, uin
   return Status::Ok();
 }
 
+// A color channel of the given type as a byte (the file header's comment).
+uint8_t color_byte(double value, PlyType type) {
+  switch (type) {
+    case PlyType::kFloat32:
+    case PlyType::kFloat64:
+      return unit_to_byte(value);
+    case PlyType::kUint16:
+      return unit_to_byte(value / 65535);
+    default:
+      return unit_to_byte(value / 255);
+  }
+}
+
 template <class Source>
 Status read_body(Source& src, const PlyHeader& header, bool ascii, const MeshLimits& limits, Mesh* mesh,
                  std::vector<double>* positions, std::vector<float>* saliency) {
@@ -344,17 +363,21 @@ Status read_body(Source& src, const PlyHeader& header, bool ascii, const MeshLim
     // Reserve no more than the remaining bytes could hold.
     const uint64_t plausible = std::min<uint64_t>(e.count, src.remaining() / min_element_bytes(e, ascii) + 1);
     if (&e == vertex) {
-      // Roles: 0..2 = x, y, z; 3 = saliency.
+      // Roles: 0..2 = x, y, z; 3 = saliency; 4..6 = red, green, blue.
+      constexpr int kRoles = 7;
       std::vector<int> roles(e.properties.size(), -1);
-      bool have[4] = {false, false, false, false};
-      static const char* kRoleNames[4] = {"x", "y", "z", "saliency"};
+      bool have[kRoles] = {};
+      PlyType color_type[3] = {};
+      static const char* kRoleNames[kRoles] = {"x", "y", "z", "saliency", "red", "green", "blue"};
+      static const char* kAliases[kRoles] = {"", "", "", "", "diffuse_red", "diffuse_green", "diffuse_blue"};
       for (size_t j = 0; j < e.properties.size(); ++j) {
-        for (int r = 0; r < 4; ++r) {
-          if (e.properties[j].name == kRoleNames[r] && !have[r]) {
-            if (e.properties[j].is_list)
-              return invalid_argument("PLY: vertex property '" + e.properties[j].name + "' is a list");
+        const std::string& name = e.properties[j].name;
+        for (int r = 0; r < kRoles; ++r) {
+          if ((name == kRoleNames[r] || name == kAliases[r]) && !have[r]) {
+            if (e.properties[j].is_list) return invalid_argument("PLY: vertex property '" + name + "' is a list");
             roles[j] = r;
             have[r] = true;
+            if (r >= 4) color_type[r - 4] = e.properties[j].type;
           }
         }
       }
@@ -365,12 +388,16 @@ Status read_body(Source& src, const PlyHeader& header, bool ascii, const MeshLim
       positions->reserve(3 * plausible);
       const bool want_saliency = saliency && have[3];
       if (want_saliency) saliency->reserve(plausible);
+      const bool want_colors = have[4] && have[5] && have[6] && !header.saliency_ramp;
+      if (want_colors) mesh->colors.reserve(3 * plausible);
       for (uint64_t i = 0; i < e.count; ++i) {
-        double v[4] = {0, 0, 0, 0};
+        double v[kRoles] = {};
         for (size_t j = 0; j < e.properties.size(); ++j)
           VPR_RETURN_IF_ERROR(read_property(src, e, e.properties[j], i, roles[j] >= 0 ? &v[roles[j]] : nullptr));
         positions->insert(positions->end(), v, v + 3);
         if (want_saliency) saliency->push_back(to_float(v[3]));
+        if (want_colors)
+          for (int c = 0; c < 3; ++c) mesh->colors.push_back(color_byte(v[4 + c], color_type[c]));
       }
     } else if (e.name == "face" && !seen_face) {
       seen_face = true;
@@ -468,23 +495,30 @@ StatusOr<Mesh> parse_ply(const uint8_t* data, size_t size, const MeshLimits& lim
     VPR_RETURN_IF_ERROR(read_body(src, header, false, limits, &mesh, &positions, &values));
   }
   if (saliency) *saliency = std::move(values);
-  return mesh_from_absolute(positions, std::move(mesh.indices));
+  Mesh out = mesh_from_absolute(positions, std::move(mesh.indices));
+  out.colors = std::move(mesh.colors);
+  return out;
 }
 
 std::vector<uint8_t> encode_ply(const Mesh& mesh, const float* saliency) {
   const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
+  // Real colors when the mesh has them; else, with saliency, its color ramp.
+  const bool colors = !mesh.colors.empty() || saliency;
+  const bool ramp = saliency && mesh.colors.empty();
   std::string header = "ply\nformat binary_little_endian 1.0\ncomment vpremesh\n";
+  if (ramp) header += std::string("comment vpremesh: ") + kSaliencyRampNote + "\n";
   header += "element vertex " + std::to_string(nv) + "\n";
   // Floats where they hold the model to 1e-6 of its size, else doubles.
   const bool as_float = absolute_fits_float(mesh);
   header += as_float ? "property float x\nproperty float y\nproperty float z\n"
                      : "property double x\nproperty double y\nproperty double z\n";
-  if (saliency) header += "property float saliency\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n";
+  if (saliency) header += "property float saliency\n";
+  if (colors) header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   header += "element face " + std::to_string(nf) + "\n";
   header += "property list uchar uint vertex_indices\nend_header\n";
 
   std::vector<uint8_t> out;
-  out.reserve(header.size() + nv * ((as_float ? 12 : 24) + (saliency ? 7 : 0)) + nf * 13);
+  out.reserve(header.size() + nv * ((as_float ? 12 : 24) + (saliency ? 4 : 0) + (colors ? 3 : 0)) + nf * 13);
   put_bytes(&out, header.data(), header.size());
   const std::vector<float> absolute = as_float ? absolute_positions(mesh) : std::vector<float>();
   for (size_t i = 0; i < nv; ++i) {
@@ -494,11 +528,13 @@ std::vector<uint8_t> encode_ply(const Mesh& mesh, const float* saliency) {
       else
         put_f64(&out, mesh.absolute(i, a));
     }
-    if (saliency) {
-      put_f32(&out, saliency[i]);
+    if (saliency) put_f32(&out, saliency[i]);
+    if (ramp) {
       uint8_t rgb[3];
       saliency_color(saliency[i], rgb);
       put_bytes(&out, rgb, 3);
+    } else if (colors) {
+      put_bytes(&out, &mesh.colors[3 * i], 3);
     }
   }
   for (size_t f = 0; f < nf; ++f) {

@@ -12,6 +12,7 @@
 #include <string>
 #include <utility>
 
+#include "color_transfer.h"
 #include "core/mesh_parts.h"
 #include "debug_output.h"
 #include "eval/visual_similarity.h"
@@ -758,6 +759,13 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
       VPR_RETURN_IF_ERROR(run_back_half(front, level_options, int(i), &result));
     }
     finish_output(front.norm, front.used, front.given_vertices, options.field.min_importance, &result);
+    // Colored from the input when it has colors or textures
+    // (color_transfer.h: the given mesh, every part of it).
+    if (has_appearance(given)) {
+      StageRunner stage(options, &result, int(i));
+      VPR_RETURN_IF_ERROR(
+          stage.run("colors", "cpu", [&] { return transfer_colors(given, result.mesh, &result.mesh.colors); }));
+    }
     result.total_ms = ms_since(front.start);
     VPR_RETURN_IF_ERROR(on_level(std::move(result)));
   }
