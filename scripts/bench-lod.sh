@@ -31,7 +31,7 @@ wall() {  # seconds a command takes, its output to $work/last.json
   t0=$(date +%s.%N)
   "$@" >"$work/last.json"
   t1=$(date +%s.%N)
-  echo "$t1 - $t0" | bc
+  awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.3f", b - a }'
 }
 
 echo "## Chain against separate jobs: $(basename "$model") -> $levels"
@@ -44,9 +44,9 @@ for r in $(seq 1 "$rounds"); do
   IFS=, read -r -a counts <<<"$levels"
   for n in "${counts[@]}"; do
     s=$(wall "$bin" local "$model" -n "$n" -o "$work/alone-$n.ply" --json "${flags[@]}")
-    separate=$(echo "$separate + $s" | bc)
+    separate=$(awk -v a="$separate" -v b="$s" 'BEGIN { printf "%.3f", a + b }')
   done
-  printf '| %d | %.2f | %.2f | %.2f |\n' "$r" "$chain" "$separate" "$(echo "$chain / $separate" | bc -l)"
+  printf '| %d | %.2f | %.2f | %.2f |\n' "$r" "$chain" "$separate" "$(awk -v a="$chain" -v b="$separate" 'BEGIN { print a / b }')"
 done
 echo
 
@@ -78,5 +78,5 @@ print(j["input"]["vertices"], j["output"]["vertices"], "%.4f" % v["ssim"], "yes"
     done
   fi
   printf '| %s | %s | %s | %s | %s | %s | %.2f | %.2f | %.2f | %s |\n' "$name" "$input" "$chosen" "$ssim" "$reached" "$tries" "$t" "$one" \
-    "$(echo "$t / $one" | bc -l)" "$below"
+    "$(awk -v a="$t" -v b="$one" 'BEGIN { print a / b }')" "$below"
 done
