@@ -152,6 +152,7 @@ void run_job_or_throw(JobQueue& queue, ClaimedJob& job, const WorkerContext& ctx
               : options.device == v1::DEVICE_CUDA ? DevicePolicy::kCuda
                                                   : ctx.device_policy;
   po.cuda_device = ctx.cuda_device;
+  po.max_level_vertices = ctx.limits.max_target_vertices;  // fractions and visual targets, found at run time
   DeviceBudget budget;  // this job's device memory, released with the job
   if (ctx.gpu_job_bytes > 0) {
     budget.limit = ctx.gpu_job_bytes;

@@ -111,6 +111,15 @@ TEST(LodChain, BadLevelListsAreRefusedNamingTheProblem) {
   both.min_ssim = 0.9;
   refused({both}, "not several");
   refused({count(50)}, "level 0: target of 50 vertices");
+
+  // A server's --max-target-vertices holds for counts found at run time.
+  PipelineOptions capped;
+  capped.max_level_vertices = 150;
+  LevelTarget all;
+  all.fraction = 1.0;  // 162
+  Status s = run_pipeline_levels(mesh, capped, {all}, [](PipelineResult&&) { return Status::Ok(); });
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("is 162, outside the supported range [100, 150]"), std::string::npos) << s.message();
 }
 
 // A visual target on a synthetic shape lands within 2% of the smallest count

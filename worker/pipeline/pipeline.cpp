@@ -648,7 +648,8 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   VisualTargetOptions search;
   search.min_ssim = min_ssim;
   search.lowest = kMinTargetVertices;
-  search.highest = uint32_t(std::clamp<size_t>(front.input.vertex_count(), kMinTargetVertices, kMaxTargetVertices));
+  search.highest = uint32_t(std::clamp<size_t>(front.input.vertex_count(), kMinTargetVertices,
+                                               std::min(kMaxTargetVertices, options.max_level_vertices)));
   std::optional<PipelineResult> best;  // the smallest passing count's, else the largest count's
   bool best_passed = false;
   auto score = [&](uint32_t count) -> StatusOr<double> {
@@ -715,7 +716,9 @@ Status check_levels(const std::vector<LevelTarget>& levels) {
   return Status::Ok();
 }
 
-StatusOr<std::vector<uint32_t>> level_counts(const std::vector<LevelTarget>& levels, size_t input_vertices) {
+StatusOr<std::vector<uint32_t>> level_counts(const std::vector<LevelTarget>& levels, size_t input_vertices,
+                                             uint32_t max_vertices) {
+  max_vertices = std::min(max_vertices, kMaxTargetVertices);
   VPR_RETURN_IF_ERROR(check_levels(levels));
   std::vector<uint32_t> counts;
   for (size_t i = 0; i < levels.size(); ++i) {
@@ -725,11 +728,11 @@ StatusOr<std::vector<uint32_t>> level_counts(const std::vector<LevelTarget>& lev
       continue;
     }
     const double n = std::round(l.fraction * double(input_vertices));
-    if (n < kMinTargetVertices || n > kMaxTargetVertices)
+    if (n < kMinTargetVertices || n > max_vertices)
       return invalid_argument("level " + std::to_string(i) + ": fraction " + std::to_string(l.fraction) + " of " +
                               std::to_string(input_vertices) + " input vertices is " + std::to_string(int64_t(n)) +
                               ", outside the supported range [" + std::to_string(kMinTargetVertices) + ", " +
-                              std::to_string(kMaxTargetVertices) + "]");
+                              std::to_string(max_vertices) + "]");
     counts.push_back(uint32_t(n));
   }
   return counts;
@@ -744,7 +747,7 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
   VPR_RETURN_IF_ERROR(validate_mesh(given));
   FrontHalf front;
   VPR_RETURN_IF_ERROR(prepare_input(given, options, &front));
-  VPR_ASSIGN_OR_RETURN(const std::vector<uint32_t> counts, level_counts(levels, front.input.vertex_count()));
+  VPR_ASSIGN_OR_RETURN(const std::vector<uint32_t> counts, level_counts(levels, front.input.vertex_count(), options.max_level_vertices));
   VPR_RETURN_IF_ERROR(run_front_half(options, &front));
 
   for (size_t i = 0; i < levels.size(); ++i) {

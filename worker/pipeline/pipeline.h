@@ -89,6 +89,9 @@ struct PipelineOptions {
   // model's are left out (`--drop-parts-smaller-than`); 0, the default, keeps
   // every part (issue 19: parts are never dropped unless asked).
   double drop_parts_smaller_than = 0;
+  // The most vertices a level whose count is found at run time (a fraction
+  // of the input, a visual target) may have: a server's --max-target-vertices.
+  uint32_t max_level_vertices = kMaxTargetVertices;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
   // Called as each stage ends (from the pipeline's thread), e.g. to stream
@@ -168,7 +171,8 @@ Status run_pipeline_levels(const Mesh& input, const PipelineOptions& options, co
 Status check_levels(const std::vector<LevelTarget>& levels);
 // Vertex counts of the levels with a count or a share of input_vertices (the
 // vertices faces use); 0 for a visual target. INVALID_ARGUMENT when a share
-// gives a count outside [kMinTargetVertices, kMaxTargetVertices].
-StatusOr<std::vector<uint32_t>> level_counts(const std::vector<LevelTarget>& levels, size_t input_vertices);
+// gives a count outside [kMinTargetVertices, max_vertices].
+StatusOr<std::vector<uint32_t>> level_counts(const std::vector<LevelTarget>& levels, size_t input_vertices,
+                                             uint32_t max_vertices = kMaxTargetVertices);
 
 }  // namespace vpr
