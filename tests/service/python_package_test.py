@@ -120,6 +120,27 @@ class PackageTest(unittest.TestCase):
             json.dump({"target": TARGET, "output_vertices": result.summary.output_vertices,
                        "saliency_values": len(result.saliency)}, f)
 
+    def test_a_level_of_detail_chain_gives_every_level_with_its_field(self):
+        with client() as c:
+            result = c.remesh(ENV["VPR_SMALL"], None, levels=[400, 0.25])
+            with self.assertRaises(vpremesh.Error) as caught:
+                c.remesh(ENV["VPR_SMALL"], None, levels=[400, 0])
+            with self.assertRaises(TypeError):
+                c.remesh(ENV["VPR_SMALL"], None, levels=["many"])
+        self.assertEqual(caught.exception.code, grpc.StatusCode.INVALID_ARGUMENT)
+        self.assertIn("level 1: no target", caught.exception.message)
+        self.assertEqual([l.level for l in result.levels], [0, 1])
+        for level, asked in zip(result.levels, (400, 161)):  # 0.25 of 642 = 160.5, rounded half up
+            self.assertTrue(level.mesh.startswith(b"DRACO"))
+            self.assertEqual(len(level.mesh), level.summary.result_bytes)
+            self.assertEqual(level.summary.target_vertices, asked)
+            self.assertLessEqual(abs(level.summary.output_vertices - asked), 0.02 * asked)
+            self.assertEqual(len(level.saliency), level.summary.output_vertices)
+        self.assertEqual(result.mesh, result.levels[0].mesh)
+        front = [s.name for s in result.stages if s.front_half]
+        self.assertEqual(front.count("render"), 1, result.stages)
+        self.assertEqual({s.level for s in result.stages if not s.front_half}, {0, 1})
+
     def test_without_numpy_the_field_is_a_list(self):
         script = ("import sys; sys.modules['numpy'] = None; import vpremesh, os; "
                   "r = vpremesh.Client(os.environ['VPR_SERVER'], os.environ['VPR_TOKEN'], os.environ['VPR_TLS_CA'])"

@@ -18,6 +18,6 @@ except ImportError as e:  # a source folder used without building
 
 from .client import Client
 from .errors import Error
-from .result import Result, Stage
+from .result import Level, Result, Stage
 
-__all__ = ["Client", "Error", "Result", "Stage", "pb"]
+__all__ = ["Client", "Error", "Level", "Result", "Stage", "pb"]

@@ -18,6 +18,17 @@ class Stage:
     ms: float    # wall time
     device: str  # "cpu", "cuda", "egl: ..."
     note: str    # e.g. why a stage fell back to the CPU
+    level: int = 0            # a chain's stages: the level whose back half ran it
+    front_half: bool = False  # a chain's stages every level shares (they ran once)
+
+
+@dataclass
+class Level:
+    """One level of a level-of-detail chain (levels=[...])."""
+    level: int
+    mesh: bytes    # its Draco file
+    saliency: Any  # one float per vertex of that mesh
+    summary: Any   # its LevelSummary: target_vertices, output_vertices, ssim and tries for a visual target, ...
 
 
 @dataclass
@@ -32,6 +43,8 @@ class Result:
     input_saliency: Any = None   # with return_input_saliency=True: one float per input vertex
     saliency_points: Any = None  # with return_saliency_points=True: x, y, z per point, flat
     debug_images: Dict[str, bytes] = field(default_factory=dict)  # with return_debug_images=True: name -> PNG
+    # A chain (levels=[...]): every level in order; mesh and saliency above are level 0's.
+    levels: List[Level] = field(default_factory=list)
 
     @property
     def stage_ms(self) -> Dict[str, float]:
@@ -77,6 +90,7 @@ class Assembler:
         self.stages, self.debug_images = [], {}
         self.mesh = _Chunks("result", "bytes")
         self.floats = {k: _Chunks(k, "values") for k in ("saliency", "input_saliency", "saliency_points")}
+        self.level_mesh, self.level_saliency = {0: self.mesh}, {0: self.floats["saliency"]}
         self.completed = None
 
     def add(self, event):
@@ -86,9 +100,15 @@ class Assembler:
             self.worker, self.device = event.started.worker, event.started.device
         elif kind == "stage":
             s = event.stage
-            self.stages.append(Stage(s.name, s.ms, s.device, s.note))
+            self.stages.append(Stage(s.name, s.ms, s.device, s.note, s.level, s.front_half))
         elif kind == "result":
-            self.mesh.add(event.result, event.result.data, len(event.result.data))
+            c = event.result
+            mesh = self.level_mesh.setdefault(c.level, _Chunks(f"result of level {c.level}", "bytes"))
+            mesh.add(c, c.data, len(c.data))
+        elif kind == "saliency":
+            c = event.saliency
+            values = self.level_saliency.setdefault(c.level, _Chunks(f"saliency of level {c.level}", "values"))
+            values.add(c, c.values, len(c.values))
         elif kind in self.floats:
             chunk = getattr(event, kind)
             self.floats[kind].add(chunk, chunk.values, len(chunk.values))
@@ -101,14 +121,20 @@ class Assembler:
         # Anything else (queued, an event a newer server sends) needs nothing.
 
     def result(self):
-        for chunks in [self.mesh, *self.floats.values()]:
+        for chunks in [*self.level_mesh.values(), *self.level_saliency.values(), *self.floats.values()]:
             chunks.check_complete()
 
         def floats(kind, absent):
             c = self.floats[kind]
             return _floats(c.parts) if c.total is not None else absent
 
+        levels = []
+        for summary in self.completed.levels if self.completed is not None else []:
+            mesh = self.level_mesh.get(summary.level)
+            values = self.level_saliency.get(summary.level)
+            levels.append(Level(summary.level, b"".join(mesh.parts) if mesh else b"",
+                                _floats(values.parts if values else []), summary))
         return Result(job_id=self.job_id, mesh=b"".join(self.mesh.parts), saliency=floats("saliency", _floats([])),
                       stages=self.stages, summary=self.completed, worker=self.worker, device=self.device,
                       input_saliency=floats("input_saliency", None), saliency_points=floats("saliency_points", None),
-                      debug_images=self.debug_images)
+                      debug_images=self.debug_images, levels=levels)

@@ -38,6 +38,21 @@ def _set(message, field, name, value):
         setattr(message, name, value)
 
 
+def _level(item):
+    """One LevelTarget: a vertex count (int), a fraction of the input's
+    vertices (float in (0, 1]), or a dict of LevelTarget fields
+    ({"min_ssim": 0.97, "screen_px": 200})."""
+    if isinstance(item, remesh_pb2.LevelTarget):
+        return item
+    if isinstance(item, dict):
+        return remesh_pb2.LevelTarget(**item)
+    if isinstance(item, bool) or not isinstance(item, (int, float)):
+        raise TypeError(f"levels: {item!r} is not a vertex count, a fraction or a dict of LevelTarget fields")
+    if isinstance(item, int):
+        return remesh_pb2.LevelTarget(vertices=item)
+    return remesh_pb2.LevelTarget(fraction=item)
+
+
 def option_names():
     """Every keyword option, sorted."""
     spec = set(remesh_pb2.JobSpec.DESCRIPTOR.fields_by_name) - _SET_BY_CLIENT
@@ -45,13 +60,16 @@ def option_names():
 
 
 def make_spec(target_vertices, size_bytes, options, caller="remesh"):
-    spec = remesh_pb2.JobSpec(target_vertices=target_vertices, mesh_size_bytes=size_bytes)
+    """target_vertices may be None with levels=[...] (a level-of-detail chain)."""
+    spec = remesh_pb2.JobSpec(target_vertices=target_vertices or 0, mesh_size_bytes=size_bytes)
     spec_fields = remesh_pb2.JobSpec.DESCRIPTOR.fields_by_name
     pipeline_fields = remesh_pb2.PipelineOptions.DESCRIPTOR.fields_by_name
     for name, value in options.items():
         if name in _SET_BY_CLIENT:
             raise TypeError(f"{caller}() sets {name} itself; it is not an option")
-        if name in spec_fields:
+        if name == "levels":
+            spec.levels.extend(_level(item) for item in value)
+        elif name in spec_fields:
             _set(spec, spec_fields[name], name, value)
         elif name in pipeline_fields:
             _set(spec.options, pipeline_fields[name], name, value)
