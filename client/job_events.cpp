@@ -59,18 +59,19 @@ double ms_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
 }
 
-// One level of a chain to OUT.lodN.EXT: the server's Draco bytes as they are,
-// or decoded and written with its field.
-Status write_level(const std::string& path, const JobOutcome::LevelPayload& l, const std::string& server) {
-  if (l.result_total == 0 || l.result.size() != l.result_total)
-    return internal_error("the server sent " + std::to_string(l.result.size()) + " of " +
-                          std::to_string(l.result_total) + " bytes of " + path);
+// A result to `path`: the server's Draco file as it is (its quantization,
+// its saliency attribute), or decoded and written with its field.
+Status write_result(const std::string& path, const std::vector<uint8_t>& result, uint64_t total,
+                    const std::vector<float>& saliency, const std::string& server) {
+  if (total == 0 || result.size() != total)
+    return internal_error("the server sent " + std::to_string(result.size()) + " of " + std::to_string(total) +
+                          " bytes of " + path);
   VPR_ASSIGN_OR_RETURN(const MeshFormat format, format_from_path(path));
-  if (format == MeshFormat::kDraco) return write_bytes(path, l.result.data(), l.result.size());
-  auto mesh = parse_mesh(l.result.data(), l.result.size(), MeshFormat::kDraco);
+  if (format == MeshFormat::kDraco) return write_bytes(path, result.data(), result.size());
+  auto mesh = parse_mesh(result.data(), result.size(), MeshFormat::kDraco);
   if (!mesh.ok()) return Status(mesh.status().code(), "the result from " + server + ": " + mesh.status().message());
-  const bool field = !l.saliency.empty() && l.saliency.size() == mesh->vertex_count();
-  return write_mesh(path, *mesh, field ? l.saliency.data() : nullptr);
+  const bool field = !saliency.empty() && saliency.size() == mesh->vertex_count();
+  return write_mesh(path, *mesh, field ? saliency.data() : nullptr);
 }
 
 }  // namespace
@@ -139,48 +140,29 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
   }
 
   const auto start = std::chrono::steady_clock::now();
-  // A chain: every level to its own file (level 0's payload is o.result).
-  const bool chain = o.summary.levels_size() > 1;
-  if (chain && !out.output.empty()) {
-    JobOutcome::LevelPayload first{o.result, o.result_total, o.saliency, o.saliency_total};
-    for (const auto& level : o.summary.levels()) {
-      const auto it = o.levels.find(level.level());
-      if (level.level() != 0 && it == o.levels.end())
-        return fail(internal_error("the server sent no mesh for level " + std::to_string(level.level())));
-      const std::string path = level_path(out.output, level.level());
-      if (Status s = write_level(path, level.level() == 0 ? first : it->second, server); !s.ok()) return fail(s);
-    }
-  }
-  const bool need_mesh = (!chain && !out.output.empty()) || (!out.field_out.empty() && !out.input_mesh);
+  const bool need_mesh = !out.output.empty() || (!out.field_out.empty() && !out.input_mesh);
   if (need_mesh && o.result_total == 0)
     return fail(not_found("job " + o.job_id + " was submitted without return_mesh: there is no result to write"));
   if (need_mesh && o.result.size() != o.result_total)
     return fail(internal_error("the server sent " + std::to_string(o.result.size()) + " of " +
                                std::to_string(o.result_total) + " bytes of the result mesh"));
-  Mesh mesh;
-  bool decoded = false;
-  auto decode = [&]() -> Status {
-    if (decoded) return {};
-    auto m = parse_mesh(o.result.data(), o.result.size(), MeshFormat::kDraco);
-    if (!m.ok()) return Status(m.status().code(), "the result from " + server + ": " + m.status().message());
-    mesh = std::move(*m);
-    decoded = true;
-    return {};
-  };
-  auto saliency_for = [&](const Mesh& m) -> const float* {
-    return o.saliency.size() == m.vertex_count() && !o.saliency.empty() ? o.saliency.data() : nullptr;
-  };
-
-  if (!chain && !out.output.empty()) {
-    auto format = format_from_path(out.output);
-    if (!format.ok()) return fail(format.status());
-    if (*format == MeshFormat::kDraco) {
-      // The server's file as it is: its quantization, its saliency attribute.
-      if (Status s = write_bytes(out.output, o.result.data(), o.result.size()); !s.ok()) return fail(s);
-    } else {
-      if (Status s = decode(); !s.ok()) return fail(s);
-      if (Status s = write_mesh(out.output, mesh, saliency_for(mesh)); !s.ok()) return fail(s);
+  // A chain: every level to its own file (level 0's payload is o.result).
+  const bool chain = o.summary.levels_size() > 1;
+  if (chain && !out.output.empty()) {
+    for (const auto& level : o.summary.levels()) {
+      const std::string path = level_path(out.output, level.level());
+      Status s;
+      if (level.level() == 0) {
+        s = write_result(path, o.result, o.result_total, o.saliency, server);
+      } else if (const auto it = o.levels.find(level.level()); it != o.levels.end()) {
+        s = write_result(path, it->second.result, it->second.result_total, it->second.saliency, server);
+      } else {
+        s = internal_error("the server sent no mesh for level " + std::to_string(level.level()));
+      }
+      if (!s.ok()) return fail(s);
     }
+  } else if (!out.output.empty()) {
+    if (Status s = write_result(out.output, o.result, o.result_total, o.saliency, server); !s.ok()) return fail(s);
   }
   if (!out.field_out.empty() && out.input_mesh) {
     // The input as uploaded, colored by its field: `vpremesh local --field-out`.
@@ -191,13 +173,16 @@ int finish_job(const JobOutcome& o, const JobOutputs& out, const std::string& se
                                  " vertices"));
     if (Status s = write_mesh(out.field_out, input, o.input_saliency.data()); !s.ok()) return fail(s);
   } else if (!out.field_out.empty()) {
-    if (Status s = decode(); !s.ok()) return fail(s);
-    if (!saliency_for(mesh))
+    // No input here (watch): the result colored by its field.
+    auto mesh = parse_mesh(o.result.data(), o.result.size(), MeshFormat::kDraco);
+    if (!mesh.ok())
+      return fail(Status(mesh.status().code(), "the result from " + server + ": " + mesh.status().message()));
+    if (o.saliency.empty() || o.saliency.size() != mesh->vertex_count())
       return fail(internal_error("the server sent " + std::to_string(o.saliency.size()) +
-                                 " saliency values for a result of " + std::to_string(mesh.vertex_count()) +
+                                 " saliency values for a result of " + std::to_string(mesh->vertex_count()) +
                                  " vertices"));
-    mesh.colors.clear();  // the field shows as the saliency ramp (-o was written before)
-    if (Status s = write_mesh(out.field_out, mesh, saliency_for(mesh)); !s.ok()) return fail(s);
+    mesh->colors.clear();  // the field shows as the saliency ramp (-o was written before)
+    if (Status s = write_mesh(out.field_out, *mesh, o.saliency.data()); !s.ok()) return fail(s);
   }
   PipelineResult result;
   result.stages = o.stages;

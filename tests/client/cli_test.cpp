@@ -255,6 +255,7 @@ TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
   const std::string empty = write("empty.off", "");
   const std::string corrupt = write("corrupt.drc", std::string("DRACO\x02\x02\x01\x01\x00\x00garbage", 18));
   const std::string good = "../shared/models/spot.obj";
+  const std::string spot_to_ply = "local " + good + " -o " + path("o.ply");
   const Case cases[] = {
       {"local " + path("missing.obj") + " -o " + path("o.ply") + " -n 500", 7, "missing.obj"},
       {"local " + obj_nan + " -o " + path("o.ply") + " -n 500", 3, "non-finite"},
@@ -262,17 +263,17 @@ TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
       {"local " + cloud + " -o " + path("o.ply") + " -n 500", 3, "point cloud"},
       {"local " + empty + " -o " + path("o.ply") + " -n 500", 3, "empty.off"},
       {"local " + corrupt + " -o " + path("o.ply") + " -n 500", 3, "corrupt.drc"},
-      {"local " + good + " -o " + path("o.ply") + " -n 5", 3, "[100, 2000000]"},
+      {spot_to_ply + " -n 5", 3, "[100, 2000000]"},
       {"local " + good + " -o " + path("o.xyz") + " -n 500", 3, ".xyz"},
-      {"local " + good + " -o " + path("o.ply") + " -n 500 --views 7", 2, "views"},
-      {"local " + good + " -o " + path("o.ply") + " -n 500 --renderer vulkan", 3, "vulkan"},
-      {"local " + good + " -o " + path("o.ply"), 3, "a target is required"},
-      {"local " + good + " -o " + path("o.ply") + " -n 500 --lod 300", 3, "not both"},
-      {"local " + good + " -o " + path("o.ply") + " --lod 500,0", 3, "--lod item 1 '0'"},
-      {"local " + good + " -o " + path("o.ply") + " --lod 500,abc", 3, "'abc' is not a number"},
-      {"local " + good + " -o " + path("o.ply") + " --lod 500,1.5", 3, "whole number"},
-      {"local " + good + " -o " + path("o.ply") + " --lod 1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1", 3, "at most 16"},
-      {"local " + good + " -o " + path("o.ply") + " --min-ssim 1.2", 3, "outside (0, 1)"},
+      {spot_to_ply + " -n 500 --views 7", 2, "views"},
+      {spot_to_ply + " -n 500 --renderer vulkan", 3, "vulkan"},
+      {spot_to_ply, 3, "a target is required"},
+      {spot_to_ply + " -n 500 --lod 300", 3, "not both"},
+      {spot_to_ply + " --lod 500,0", 3, "--lod item 1 '0'"},
+      {spot_to_ply + " --lod 500,abc", 3, "'abc' is not a number"},
+      {spot_to_ply + " --lod 500,1.5", 3, "whole number"},
+      {spot_to_ply + " --lod 1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1", 3, "at most 16"},
+      {spot_to_ply + " --min-ssim 1.2", 3, "outside (0, 1)"},
   };
   for (const Case& c : cases) {
     CliRun r = run_cli(c.args);

@@ -656,7 +656,6 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     PipelineOptions o = options;
     o.target_vertices = count;
     PipelineResult attempt = level_result(front, level, count);
-    attempt.stages.clear();
     VPR_RETURN_IF_ERROR(run_back_half(front, o, level, &attempt));
     const auto start = Clock::now();
     VPR_ASSIGN_OR_RETURN(const VisualSimilarity similarity, reference.compare(attempt.mesh));
@@ -747,17 +746,17 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
   VPR_RETURN_IF_ERROR(validate_mesh(given));
   FrontHalf front;
   VPR_RETURN_IF_ERROR(prepare_input(given, options, &front));
-  VPR_ASSIGN_OR_RETURN(const std::vector<uint32_t> counts, level_counts(levels, front.input.vertex_count(), options.max_level_vertices));
+  VPR_ASSIGN_OR_RETURN(const std::vector<uint32_t> counts,
+                       level_counts(levels, front.input.vertex_count(), options.max_level_vertices));
   VPR_RETURN_IF_ERROR(run_front_half(options, &front));
 
   for (size_t i = 0; i < levels.size(); ++i) {
     PipelineOptions level_options = options;
-    PipelineResult result = level_result(front, int(i), counts[i]);
+    PipelineResult result;
     if (levels[i].min_ssim > 0) {
-      VPR_ASSIGN_OR_RETURN(PipelineResult found, run_visual_target(front, options, int(i), levels[i]));
-      found.stages.insert(found.stages.begin(), result.stages.begin(), result.stages.end());
-      result = std::move(found);
+      VPR_ASSIGN_OR_RETURN(result, run_visual_target(front, options, int(i), levels[i]));
     } else {
+      result = level_result(front, int(i), counts[i]);
       level_options.target_vertices = counts[i];
       VPR_RETURN_IF_ERROR(run_back_half(front, level_options, int(i), &result));
     }
