@@ -58,6 +58,11 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--attention-sigma", o.attention.coarse_sigma,
                   "Attention field: coarse curvature scale, a fraction of the bounding-box diagonal")
       ->capture_default_str();
+  cmd->add_option("--anisotropy", o.anisotropy,
+                  "CVT anisotropy, a share of the bounding-box diagonal: cells stretch where the surface turns "
+                  "least (0: isotropic)")
+      ->check(CLI::Range(0.0, 0.5))
+      ->capture_default_str();
   cmd->add_option("--drop-parts-smaller-than", o.drop_parts_smaller_than,
                   "Leave out connected parts whose bounding-box diagonal is below this share of the model's "
                   "(0: keep every part)")

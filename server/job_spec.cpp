@@ -117,6 +117,15 @@ Status pipeline_options_from_proto(const v1::PipelineOptions& p, PipelineOptions
   VPR_RETURN_IF_ERROR(
       float_field("options.drop_parts_smaller_than", p.drop_parts_smaller_than(), 0, true, 1, false, 0.0f, &drop));
   o.drop_parts_smaller_than = drop;
+  if (p.has_anisotropy()) {
+    const float a = p.anisotropy();
+    if (!std::isfinite(a) || a < 0 || a > 0.5f)
+      return invalid_argument("options.anisotropy is " + str(a) + "; it must be in [0, 0.5] (unset = default " +
+                              str(float(d.anisotropy)) + ", 0 = isotropic)");
+    o.anisotropy = a;
+  } else {
+    o.anisotropy = d.anisotropy;
+  }
   if (p.density().empty()) {
     o.density = d.density;
   } else {
@@ -214,6 +223,8 @@ StatusOr<v1::PipelineOptions> pipeline_options_to_proto(const PipelineOptions& o
   p.set_awlop_h_factor(o.awlop.h_factor);
   p.set_density(density_mode_name(o.density));
   p.set_drop_parts_smaller_than(float(o.drop_parts_smaller_than));
+  // Unset is the default: sent through a float it would come back as 0.03999...
+  if (o.anisotropy != d.anisotropy) p.set_anisotropy(float(o.anisotropy));
   // Negative ints cast to uint32 above would wrap: check the result on the way back.
   PipelineOptions check = o;
   VPR_RETURN_IF_ERROR(pipeline_options_from_proto(p, &check));

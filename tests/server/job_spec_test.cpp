@@ -65,6 +65,7 @@ TEST(JobSpec, RoundTripKeepsEveryOption) {
   in.awlop.attraction_samples_per_target = 4;
   in.awlop.support = AwlopSupport::kPaper;
   in.awlop.h_factor = 3.0f;
+  in.anisotropy = 0;  // isotropic: sent explicitly, not taken for "unset"
 
   auto spec = make_job_spec(in);
   ASSERT_TRUE(spec.ok()) << spec.status().to_string();
@@ -94,6 +95,7 @@ TEST(JobSpec, RoundTripKeepsEveryOption) {
   EXPECT_EQ(o.awlop.attraction_samples_per_target, 4);
   EXPECT_EQ(o.awlop.support, AwlopSupport::kPaper);
   EXPECT_EQ(o.awlop.h_factor, 3.0f);
+  EXPECT_EQ(o.anisotropy, 0.0);
 }
 
 TEST(JobSpec, DefaultOptionsRoundTripToDefaults) {
@@ -107,6 +109,12 @@ TEST(JobSpec, DefaultOptionsRoundTripToDefaults) {
   EXPECT_EQ(out.pipeline.views.count, d.views.count);
   EXPECT_EQ(out.pipeline.awlop.h_factor, d.awlop.h_factor);
   EXPECT_EQ(out.pipeline.field.min_importance, d.field.min_importance);
+  EXPECT_EQ(out.pipeline.anisotropy, d.anisotropy);
+  // A spec that never set it (an older client) gets the default too.
+  v1::JobSpec old = *spec;
+  old.mutable_options()->clear_anisotropy();
+  ASSERT_TRUE(job_options_from_spec(old, &out).ok());
+  EXPECT_EQ(out.pipeline.anisotropy, d.anisotropy);
 }
 
 // Each bad value is refused, and the message names the proto field.
@@ -154,7 +162,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadField{"options.awlop_samples", [](v1::JobSpec* s) { s->mutable_options()->set_awlop_samples(33); }},
         BadField{"options.awlop_support",
                  [](v1::JobSpec* s) { s->mutable_options()->set_awlop_support(v1::AwlopSupport(5)); }},
-        BadField{"options.awlop_h_factor", [](v1::JobSpec* s) { s->mutable_options()->set_awlop_h_factor(-2); }}));
+        BadField{"options.awlop_h_factor", [](v1::JobSpec* s) { s->mutable_options()->set_awlop_h_factor(-2); }},
+        BadField{"options.anisotropy", [](v1::JobSpec* s) { s->mutable_options()->set_anisotropy(0.6f); }},
+        BadField{"options.anisotropy", [](v1::JobSpec* s) { s->mutable_options()->set_anisotropy(NAN); }}));
 
 TEST(JobSpec, ValuesThatZeroWouldHideCannotBeSent) {
   PipelineOptions o;

@@ -235,6 +235,8 @@ Status validate_options(const PipelineOptions& o) {
   VPR_RETURN_IF_ERROR(check_visibility_args({}, {}, o.visibility));  // its options only, before any work
   if (!(o.drop_parts_smaller_than >= 0 && o.drop_parts_smaller_than <= 1))
     return invalid_argument("drop-parts-smaller-than must be a share of the model's diagonal in [0, 1]");
+  if (!(o.anisotropy >= 0 && o.anisotropy <= 0.5))
+    return invalid_argument("anisotropy must be a share of the model's diagonal in [0, 0.5]");
   if (!(o.awlop.mu >= 0 && o.awlop.mu <= 0.5)) return invalid_argument("mu must be in [0, 0.5]");
   if (o.awlop.k < 1 || o.awlop.k > 64) return invalid_argument("AWLOP k must be in [1, 64]");
   if (o.awlop.iterations < 0 || o.awlop.iterations > 200)
@@ -499,6 +501,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       std::vector<uint32_t> label;
       CvtOptions cvt = options.cvt;
       cvt.seed = options.sampling.seed;
+      cvt.anisotropy = options.anisotropy;  // the input has a unit diagonal here
       VPR_RETURN_IF_ERROR(stage.run(
           "cvt", cpu,
           [&]() -> Status {

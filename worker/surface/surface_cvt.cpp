@@ -22,10 +22,11 @@ using Adjacency = MeshEdges;
 
 struct Cluster {
   double m = 0;
-  Vec3d s{0, 0, 0};
+  Vec3d s{0, 0, 0};  // sum m x
+  Vec3d t{0, 0, 0};  // sum m a n: the normal half of the six-dimensional position (anisotropy)
   size_t size = 0;
-  // -|s|^2 / m: the cluster's energy less sum m |x|^2, which no move changes.
-  double energy() const { return m > 0 ? -dot(s, s) / m : 0.0; }
+  // -|(s, t)|^2 / m: the cluster's energy less sum m |(x, a n)|^2, which no move changes.
+  double energy() const { return m > 0 ? -(dot(s, s) + dot(t, t)) / m : 0.0; }
 };
 
 double total_energy(const std::vector<Cluster>& clusters, double constant) {
@@ -215,6 +216,66 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const std::vector<uint32
   return out;
 }
 
+// The normal half of each element's position in R^6, (x, a n) (Levy and
+// Bonneel 2012): a cell then pays for the spread of its normals as for the
+// spread of its positions, so cells stretch along the directions in which the
+// surface turns least (a cylinder's axis) and shrink across those in which it
+// turns most. Two changes to their construction, both measured in
+// docs/quality.md:
+// - The normals are smoothed over the edges first (each pass half its own,
+//   half its neighbours' mean; k / 2 passes for k elements per cell, so
+//   about half a cell's width), so that a scan's noise does not fray the
+//   cells into slivers.
+// - The offset tapers to zero within about two cells' widths (2 sqrt(k)
+//   hops) of a sharp vertex (a face normal more than 15 degrees from its
+//   vertex normal: a dihedral angle over about 30 degrees, the dual's
+//   crease): there the crease is kept by the dual's quadric placement
+//   (cluster_mesh.h), which needs cells that cover the crease, while in R^6
+//   a cell across a crease pays for the jump in normal and the cells' walls
+//   would line up with the crease instead.
+std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, const std::vector<Vec3d>& x,
+                                       const std::vector<Vec3d>& vertex_normal, uint32_t count, double anisotropy) {
+  const size_t nv = x.size();
+  std::vector<Vec3d> y(nv, Vec3d{0, 0, 0});
+  if (!(anisotropy > 0)) return y;
+  const double per_cell = double(nv) / std::max<uint32_t>(count, 1);
+  const int passes = int(std::clamp(std::lround(per_cell / 2), 1L, 64L));
+  const int taper = int(std::clamp(std::lround(2 * std::sqrt(per_cell)), 1L, 64L));
+  std::vector<Vec3d> now = vertex_normal, next(nv);
+  for (int it = 0; it < passes; ++it) {
+    for (uint32_t v = 0; v < nv; ++v) {
+      Vec3d sum{0, 0, 0};
+      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) sum = sum + now[*w];
+      next[v] = adj.degree(v) ? now[v] * 0.5 + sum * (0.5 / double(adj.degree(v))) : now[v];
+    }
+    now.swap(next);
+  }
+  // Hops to the nearest sharp vertex, up to `taper`.
+  constexpr double kCos15 = 0.9659258262890683;
+  std::vector<int> hops(nv, taper);
+  std::vector<uint32_t> frontier;
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    const uint32_t* t = &mesh.indices[3 * f];
+    const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+    const double len = norm(n);
+    if (!(len > 0)) continue;
+    for (int k = 0; k < 3; ++k)
+      if (hops[t[k]] != 0 && dot(n, vertex_normal[t[k]]) < kCos15 * len) hops[t[k]] = 0, frontier.push_back(t[k]);
+  }
+  for (int d = 1; d < taper && !frontier.empty(); ++d) {
+    std::vector<uint32_t> reached;
+    for (uint32_t v : frontier)
+      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
+        if (hops[*w] > d) hops[*w] = d, reached.push_back(*w);
+    frontier.swap(reached);
+  }
+  for (size_t v = 0; v < nv; ++v) {
+    const double len = norm(now[v]);
+    if (len > 0) y[v] = now[v] * (anisotropy * double(hops[v]) / (double(taper) * len));
+  }
+  return y;
+}
+
 }  // namespace
 
 std::vector<double> vertex_areas(const Mesh& mesh) {
@@ -243,6 +304,16 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   if (count < 1) return invalid_argument("surface CVT: at least one cluster");
   std::vector<Vec3d> x(nv);
   for (size_t v = 0; v < nv; ++v) x[v] = load3d(mesh.positions.data(), v);
+  std::vector<Vec3d> vertex_normal(nv, Vec3d{0, 0, 0});  // unit, area-weighted
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    const uint32_t* t = &mesh.indices[3 * f];
+    const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+    for (int k = 0; k < 3; ++k) vertex_normal[t[k]] = vertex_normal[t[k]] + n;
+  }
+  for (Vec3d& n : vertex_normal)
+    if (norm(n) > 0) n = n * (1.0 / norm(n));
+  // The normal half of each element's position in R^6 (zero: isotropic).
+  const std::vector<Vec3d> y = anisotropic_offsets(mesh, adj, x, vertex_normal, count, options.anisotropy);
 
   // Connected parts (elements with mass only; isolated vertices have none).
   std::vector<uint32_t> part(nv, UINT32_MAX);
@@ -396,8 +467,9 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     Cluster& c = clusters[label[v]];
     c.m += mass[v];
     c.s = c.s + x[v] * mass[v];
+    c.t = c.t + y[v] * mass[v];
     ++c.size;
-    constant += mass[v] * dot(x[v], x[v]);
+    constant += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
   }
   std::vector<double> energy = {total_energy(clusters, constant)};
 
@@ -437,7 +509,8 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     const double m = mass[v];
     if (a.size <= 1 || !(a.m - m > 0)) return 0.0;
     const Vec3d sa = a.s - x[v] * m, sb = b.s + x[v] * m;
-    const double after = -dot(sa, sa) / (a.m - m) - dot(sb, sb) / (b.m + m);
+    const Vec3d ta = a.t - y[v] * m, tb = b.t + y[v] * m;
+    const double after = -(dot(sa, sa) + dot(ta, ta)) / (a.m - m) - (dot(sb, sb) + dot(tb, tb)) / (b.m + m);
     return a.energy() + b.energy() - after;  // > 0: E falls
   };
   auto allowed = [&](uint32_t v, uint32_t from, uint32_t to) {
@@ -448,9 +521,11 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     Cluster& b = clusters[to];
     a.m -= mass[v];
     a.s = a.s - x[v] * mass[v];
+    a.t = a.t - y[v] * mass[v];
     --a.size;
     b.m += mass[v];
     b.s = b.s + x[v] * mass[v];
+    b.t = b.t + y[v] * mass[v];
     ++b.size;
     loop_remove(v, label[v]);
     loop_add(v, to);
@@ -509,14 +584,6 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   // along its farthest pair of elements, as many cells elsewhere are merged
   // away, and the sweeps go on; up to max_split_fraction x count splits.
   size_t merged = 0;
-  std::vector<Vec3d> vertex_normal(nv, Vec3d{0, 0, 0});  // unit, area-weighted
-  for (size_t f = 0; f < mesh.face_count(); ++f) {
-    const uint32_t* t = &mesh.indices[3 * f];
-    const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
-    for (int k = 0; k < 3; ++k) vertex_normal[t[k]] = vertex_normal[t[k]] + n;
-  }
-  for (Vec3d& n : vertex_normal)
-    if (norm(n) > 0) n = n * (1.0 / norm(n));
   const uint32_t split_budget = uint32_t(std::ceil(options.max_split_fraction * count));
   size_t splits = 0;
   auto rebuild = [&]() {
@@ -530,8 +597,9 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       Cluster& c = clusters[label[v]];
       c.m += mass[v];
       c.s = c.s + x[v] * mass[v];
+      c.t = c.t + y[v] * mass[v];
       ++c.size;
-      constant += mass[v] * dot(x[v], x[v]);
+      constant += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
       loop_add(v, label[v]);
     }
   };

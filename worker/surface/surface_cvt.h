@@ -46,6 +46,12 @@ struct CvtOptions {
   int topology_rounds = 8;
   double max_split_fraction = 0.1;
   double split_mass_factor = 4;  // a split cell's elements weigh this much more (cells there half as wide)
+  // Length a by which each element's unit normal is scaled to make its
+  // position in R^6, (x, a n) (Levy and Bonneel 2012, "Variational
+  // anisotropic surface meshing with Voronoi parallel linear enumeration"):
+  // cells stretch along the directions in which the normal turns least. 0:
+  // the isotropic CVT.
+  double anisotropy = 0;
 };
 
 struct CvtStats {
