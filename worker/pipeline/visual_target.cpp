@@ -81,12 +81,22 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     // Close from above: the largest count that would end the search if it fails.
     const double closing = hi - std::log1p(o.tolerance) + 1e-9;
     if (passed > 0 && log_next >= closing) log_next = closing;
+    // Close from below: when the last try failed although the model aimed it
+    // past the bound, and the model now points within the tolerance above
+    // that failure, try the largest count that ends the search if it
+    // passes. Near the bound the score is noisy (SSIM moves by about 0.002
+    // between counts 1% apart), and creeping up from the failure by the
+    // model's small steps would fail again and again.
+    const double opening = lo + std::log1p(o.tolerance) - 1e-9;
+    const bool close_from_below = passed > 0 && failed > 0 && out.tries.back().ssim < o.min_ssim &&
+                                  log_next > lo && log_next <= opening;
     if (passed > 0 && failed > 0 && (stalled >= 2 || log_next <= lo)) {
       log_next = 0.5 * (lo + hi);
       stalled = 0;
     }
     uint32_t n = uint32_t(std::lround(std::exp(log_next)));
     if (passed > 0 && log_next >= closing - 1e-6) n = uint32_t(std::ceil(double(passed) / (1.0 + o.tolerance)));
+    if (close_from_below && log_next <= opening) n = uint32_t(std::floor(double(failed) * (1.0 + o.tolerance)));
     // Strictly inside the bracket.
     if (failed > 0 && n <= failed) n = failed + 1;
     if (passed > 0 && n >= passed) n = passed - 1;
