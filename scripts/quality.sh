@@ -17,6 +17,7 @@
 #   STEP_TIMEOUT=1800 (seconds a remeshing or an evaluation may take; past it the run is a failure)
 # Methods: ours-perception ours-curvature ours-uniform ours-paper meshlab-adaptive
 #          openmesh-qem cgal-isotropic meshoptimizer
+#          and variants of ours: ours-MODE~flag=value~... (e.g. ours-curvature~anisotropy=0)
 # pymeshlab, flip-evaluator, numpy and pillow come from a virtual environment
 # made on first use ($VENV); the service never needs them.
 set -euo pipefail
@@ -32,7 +33,7 @@ DOC=${DOC-docs/quality.md}
 DEFAULT_CASES=$(sed -n '/^CASES=\${CASES:-"/,/"}$/p' scripts/density-compare.sh | sed -e 's/^CASES=\${CASES:-"//' -e 's/"}$//')
 CASES=${CASES:-$DEFAULT_CASES}
 # In order of what the goals need first: a run cut short still has whole columns.
-METHODS=${METHODS:-"ours-perception meshlab-adaptive cgal-isotropic openmesh-qem ours-uniform ours-curvature ours-paper meshoptimizer"}
+METHODS=${METHODS:-"ours-curvature meshlab-adaptive cgal-isotropic openmesh-qem ours-uniform ours-perception ours-paper meshoptimizer"}
 [ -x "$BIN" ] || { echo "quality.sh: no vpremesh binary at $BIN (make build, or pass its path)" >&2; exit 2; }
 [ -n "$CASES" ] || { echo "quality.sh: no cases (could not read density-compare.sh's list)" >&2; exit 2; }
 

@@ -3,7 +3,8 @@ judged alike. Driven by scripts/quality.sh (which makes the virtual
 environment); see there for the knobs.
 
 For each case (model, target) and method, one unit of work:
-  1. remesh: ours (`vpremesh local --density MODE`), a peer of `vpremesh
+  1. remesh: ours (`vpremesh local --density MODE`; a variant
+     `ours-MODE~flag=value~...` adds `--flag value` for each), a peer of `vpremesh
      compare` (`vpremesh peers --only SLUG`), or MeshLab's adaptive isotropic
      remeshing (meshlab_remesh.py, the edge length searched to land within 2%);
   2. judge: `vpremesh eval INPUT MESH --json --views-dir DIR` (SSIM of gray
@@ -79,8 +80,14 @@ def flip_mean(reference, candidate, margin=32):
 
 def remesh(args, model_path, target, method, mesh, log):
     if method.startswith("ours-"):
+        # ours-MODE, or ours-MODE~flag=value~flag=value for a variant (`--flag value` each).
+        mode, *extra = method[5:].split("~")
+        flags = []
+        for e in extra:
+            k, _, v = e.partition("=")
+            flags += [f"--{k}"] + ([v] if v else [])
         r = json.loads(run([args.bin, "local", model_path, "-o", mesh, "-n", str(target),
-                            "--density", method[5:], "--json"], log, args.timeout))
+                            "--density", mode, "--json"] + flags, log, args.timeout))
         return {"time_ms": r.get("total_ms", 0), "note": ""}
     if method == "meshlab-adaptive":
         r = json.loads(run([sys.executable, os.path.join(HERE, "meshlab_remesh.py"), model_path, str(target), mesh], log, args.timeout))
@@ -167,7 +174,7 @@ def main():
     args = ap.parse_args()
     methods = args.methods.split()
     for m in methods:
-        if m not in ALL_METHODS:
+        if m.split("~")[0] not in ALL_METHODS:
             sys.exit(f"referee: unknown method {m} (one of {' '.join(ALL_METHODS)})")
     # Method by method in the order asked (the first ones matter most), case by
     # case within each: a run cut short has whole columns, not whole rows.

@@ -16,12 +16,12 @@ import re
 
 from PIL import Image
 
-OURS = "ours-perception"  # the default density: the one the goals judge
+OURS = "ours-curvature"  # the default density (PipelineOptions::density): the one the goals judge
 WELL_SHAPED = ["meshlab-adaptive", "cgal-isotropic"]
 QEM = "openmesh-qem"
-ORDER = ["ours-perception", "ours-curvature", "ours-uniform", "ours-paper", "meshlab-adaptive",
+ORDER = ["ours-curvature", "ours-perception", "ours-uniform", "ours-paper", "meshlab-adaptive",
          "openmesh-qem", "cgal-isotropic", "meshoptimizer"]
-LABEL = {"ours-perception": "vpremesh perception (default)", "ours-curvature": "vpremesh curvature",
+LABEL = {"ours-perception": "vpremesh perception", "ours-curvature": "vpremesh curvature (default)",
          "ours-uniform": "vpremesh uniform", "ours-paper": "vpremesh paper",
          "meshlab-adaptive": "MeshLab adaptive isotropic", "openmesh-qem": "OpenMesh QEM",
          "cgal-isotropic": "CGAL isotropic", "meshoptimizer": "meshoptimizer"}
