@@ -89,7 +89,8 @@ def main():
     ap.add_argument("--doc")
     ap.add_argument("--note", default="", help="a line about the machine and the run, quoted in the header")
     args = ap.parse_args()
-    recs = load(args.runs)
+    # Variants of ours (ours-MODE~flag=value) are for variants.py, not the goals' tables.
+    recs = [r for r in load(args.runs) if r["method"] in ORDER]
     by = {}
     for r in recs:
         by.setdefault(f"{r['model']}-{r['target']}", {})[r["method"]] = r
