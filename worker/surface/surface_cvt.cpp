@@ -8,6 +8,8 @@
 #include <string>
 #include <unordered_map>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include "core/rng.h"
@@ -243,11 +245,15 @@ std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, c
   const int taper = int(std::clamp(std::lround(2 * std::sqrt(per_cell)), 1L, 64L));
   std::vector<Vec3d> now = vertex_normal, next(nv);
   for (int it = 0; it < passes; ++it) {
-    for (uint32_t v = 0; v < nv; ++v) {
-      Vec3d sum{0, 0, 0};
-      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) sum = sum + now[*w];
-      next[v] = adj.degree(v) ? now[v] * 0.5 + sum * (0.5 / double(adj.degree(v))) : now[v];
-    }
+    // Jacobi passes: each vertex reads only the last pass, so any thread
+    // count gives the same bits.
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 4096), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t v = r.begin(); v != r.end(); ++v) {
+        Vec3d sum{0, 0, 0};
+        for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) sum = sum + now[*w];
+        next[v] = adj.degree(v) ? now[v] * 0.5 + sum * (0.5 / double(adj.degree(v))) : now[v];
+      }
+    });
     now.swap(next);
   }
   // Hops to the nearest sharp vertex, up to `taper`.
