@@ -15,6 +15,7 @@
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/orientation.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/boost/graph/Euler_operations.h>
@@ -110,9 +111,10 @@ double signed_volume(const SurfaceMesh& sm, const std::vector<FaceIndex>& faces,
   return volume;
 }
 
-// Open surfaces: per connected component, make the faces wind outward (positive
-// signed volume about the component's centroid). Heuristic, but right for a
-// closed shape with small unfilled holes, which is what AFSR leaves behind.
+// Open or self-intersecting surfaces: per connected component, make the faces
+// wind outward (positive signed volume about the component's centroid).
+// Heuristic, but right for a closed shape with small unfilled holes, which is
+// what AFSR leaves behind; nested shells all face outward.
 void orient_open_components(SurfaceMesh& sm) {
   auto component = sm.add_property_map<FaceIndex, size_t>("f:vpr_component", 0).first;
   const size_t count = PMP::connected_components(sm, component);
@@ -220,7 +222,12 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
     if (sm.is_isolated(v)) sm.remove_vertex(v);
   sm.collect_garbage();  // compact indices; property maps follow
 
-  if (CGAL::is_closed(sm)) {
+  // orient_to_bound_a_volume needs a closed mesh that does not intersect
+  // itself (its documented precondition): on one that does, its ray casts
+  // can retry forever (the pipeline fuzzer found a 101-triangle soup that
+  // held it for minutes). Such meshes, and open ones, get each component
+  // outward by its own signed volume instead.
+  if (CGAL::is_closed(sm) && !PMP::does_self_intersect(sm)) {
     PMP::orient_to_bound_a_volume(sm);  // outward; inner shells of nested components inward
   } else {
     orient_open_components(sm);
