@@ -169,11 +169,15 @@ void drop_slivers(Mesh* mesh, std::vector<uint32_t>* source) {
 // coplanar vertices) are what the dual makes where a triple of cells wraps a
 // sharp fold (suzanne.obj at ten times its vertex count gave an 18-vertex one
 // on its keel, a fourth part where the input has three). Dropped, smallest
-// first, only while the output has more pieces than the input has parts, so
-// that a card the input models as a flat closed part keeps its dual.
-void drop_flat_pillows(Mesh* mesh, std::vector<uint32_t>* source, size_t input_parts) {
+// first, only while the output has more pieces than the input (`surface`)
+// has parts, so that a card the input models as a flat closed part keeps its
+// dual.
+void drop_flat_pillows(Mesh* mesh, std::vector<uint32_t>* source, const Mesh& surface) {
   size_t pieces = 0;
   const std::vector<uint32_t> piece = face_parts(*mesh, &pieces);
+  if (pieces <= 1) return;  // the input has a part at least: skip counting its parts
+  size_t input_parts = 0;
+  face_parts(surface, &input_parts);
   if (pieces <= input_parts) return;
   std::vector<double> area(pieces, 0.0), volume(pieces, 0.0);
   std::vector<uint32_t> faces(pieces, 0);
@@ -615,11 +619,7 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
     st.boundary_loops = loops;
   }
   drop_slivers(out, &source);
-  {
-    size_t input_parts = 0;
-    face_parts(surface, &input_parts);
-    drop_flat_pillows(out, &source, input_parts);
-  }
+  drop_flat_pillows(out, &source, surface);
   delaunay_flips(out);
   std::vector<char> output_boundary(out->vertex_count(), 0);
   {
