@@ -530,7 +530,9 @@ TEST(SurfaceCvtTest, SameCellsAndMeshOnAnyThreadCount) {
   // must stay free of thread-count effects as it gains parallel parts: the
   // cells, every energy along the way and the mesh must not depend on how
   // many threads made them. A torus with a thin tube also takes the split
-  // and merge rounds.
+  // and merge rounds. The sweeps run slabs of the surface at once (two at
+  // 300 cells, six at 1,500: three of each colour together).
+  for (const uint32_t cells : {300u, 1500u})
   for (const Mesh& input : {box(1, 0.7, 0.4, 12), torus(1.0, 0.03, 12, 240)}) {
     const std::vector<float> ones(input.vertex_count(), 1.0f);
     auto refined = refine_surface(input, ones, 1, 0.02, 10'000'000);
@@ -543,7 +545,7 @@ TEST(SurfaceCvtTest, SameCellsAndMeshOnAnyThreadCount) {
       tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
       std::vector<uint32_t> label;
       CvtStats stats;
-      ASSERT_TRUE(surface_cvt(refined->mesh, mass, 300, {}, &label, &stats).ok());
+      ASSERT_TRUE(surface_cvt(refined->mesh, mass, cells, {}, &label, &stats).ok());
       Mesh out;
       std::vector<uint32_t> cell;
       ASSERT_TRUE(mesh_clusters(refined->mesh, label, stats.clusters, &out, &cell, nullptr).ok());

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <memory>
 #include <cmath>
 #include <numeric>
 #include <queue>
@@ -9,6 +11,7 @@
 #include <unordered_map>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
@@ -282,6 +285,57 @@ std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, c
   return y;
 }
 
+
+// The sweeps' slabs (see surface_cvt's sweep loop): elements cut along the
+// longest axis of their bounding box into `slabs` runs of equal count (ties
+// by index), each run's elements in ascending order; `sequential`: the
+// elements a slab may not move (on a boundary loop, or with a neighbour two
+// or more slabs away), ascending.
+struct SlabSchedule {
+  uint32_t slabs = 1;
+  std::vector<uint32_t> slab_of;
+  std::vector<std::vector<uint32_t>> elements;
+  std::vector<uint32_t> sequential;
+  std::vector<char> last;  // per element: in `sequential`
+};
+
+SlabSchedule slab_schedule(const std::vector<Vec3d>& x, const Adjacency& adj, const std::vector<uint32_t>& label,
+                           const std::vector<uint32_t>& loop_of, uint32_t count) {
+  SlabSchedule s;
+  const size_t nv = x.size();
+  // About six cells' widths per slab along the axis at 10,000 cells (a
+  // square root of the count across), fewer slabs for fewer cells; even, so
+  // the two colours alternate.
+  s.slabs = 2 * std::clamp<uint32_t>(uint32_t(std::sqrt(double(count)) / 12), 1, 16);
+  auto coordinate = [](const Vec3d& p, int k) { return k == 0 ? p.x : k == 1 ? p.y : p.z; };
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (uint32_t v = 0; v < nv; ++v)
+    if (label[v] != UINT32_MAX)
+      for (int k = 0; k < 3; ++k)
+        lo[k] = std::min(lo[k], coordinate(x[v], k)), hi[k] = std::max(hi[k], coordinate(x[v], k));
+  int axis = 0;
+  for (int k = 1; k < 3; ++k)
+    if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
+  std::vector<std::pair<double, uint32_t>> order;
+  for (uint32_t v = 0; v < nv; ++v)
+    if (label[v] != UINT32_MAX) order.push_back({coordinate(x[v], axis), v});
+  tbb::parallel_sort(order.begin(), order.end());  // distinct pairs: one order on any thread count
+  s.slab_of.assign(nv, UINT32_MAX);
+  s.elements.assign(s.slabs, {});
+  s.last.assign(nv, 0);
+  for (size_t i = 0; i < order.size(); ++i) s.slab_of[order[i].second] = uint32_t(i * s.slabs / order.size());
+  for (uint32_t v = 0; v < nv; ++v) {
+    if (s.slab_of[v] == UINT32_MAX) continue;
+    bool alone = loop_of[v] == UINT32_MAX;
+    for (const uint32_t* w = adj.begin(v); w != adj.end(v) && alone; ++w)
+      alone = s.slab_of[*w] == UINT32_MAX ||
+              (s.slab_of[*w] + 1 >= s.slab_of[v] && s.slab_of[*w] <= s.slab_of[v] + 1);
+    (alone ? s.elements[s.slab_of[v]] : s.sequential).push_back(v);
+    if (!alone) s.last[v] = 1;
+  }
+  return s;
+}
+
 }  // namespace
 
 std::vector<double> vertex_areas(const Mesh& mesh) {
@@ -440,28 +494,56 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     }
   }
 
-  // Grow the cells from the seeds over the edges, nearest first (Dijkstra on
-  // edge lengths), so every cell starts connected.
+  // Grow the cells from the seeds over the edges to the nearest seed (graph
+  // distance on edge lengths), so every cell starts connected. In rounds, in
+  // parallel (Bellman-Ford on a moving front): each element next to one that
+  // improved last round takes its best neighbour's distance plus the edge,
+  // and its cell, if that is shorter; every round reads only the last one, so
+  // any thread count gives the same cells. At the end each element's cell is
+  // that of a neighbour nearer the same seed: the cells are connected.
   {
-    using Item = std::pair<double, uint32_t>;
-    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
     std::vector<double> dist(nv, INFINITY);
-    for (uint32_t s : seeds) {
-      dist[s] = 0;
-      queue.push({0.0, s});
-    }
-    while (!queue.empty()) {
-      const auto [d, v] = queue.top();
-      queue.pop();
-      if (d > dist[v]) continue;
-      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
-        const double nd = d + norm(x[*w] - x[v]);
-        if (nd < dist[*w]) {
-          dist[*w] = nd;
-          label[*w] = label[v];
-          queue.push({nd, *w});
+    for (uint32_t s : seeds) dist[s] = 0;
+    // The rounds' sets are the same on any thread count; the order in which
+    // threads list them is not, and nothing depends on it.
+    std::unique_ptr<std::atomic<uint32_t>[]> listed(new std::atomic<uint32_t>[nv]);
+    for (size_t v = 0; v < nv; ++v) listed[v].store(0, std::memory_order_relaxed);
+    std::vector<uint32_t> front = seeds, candidates;
+    std::vector<std::pair<double, uint32_t>> better;
+    tbb::enumerable_thread_specific<std::vector<uint32_t>> local;
+    auto gather = [&](std::vector<uint32_t>* out) {
+      out->clear();
+      for (auto& l : local) out->insert(out->end(), l.begin(), l.end()), l.clear();
+    };
+    for (uint32_t round = 1; !front.empty(); ++round) {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, front.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+        auto& out = local.local();
+        for (size_t i = r.begin(); i != r.end(); ++i)
+          for (const uint32_t* w = adj.begin(front[i]); w != adj.end(front[i]); ++w)
+            if (listed[*w].exchange(round, std::memory_order_relaxed) != round) out.push_back(*w);
+      });
+      gather(&candidates);
+      better.resize(candidates.size());
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          const uint32_t v = candidates[i];
+          better[i] = {dist[v], UINT32_MAX};
+          for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
+            const double nd = dist[*w] + norm(x[*w] - x[v]);
+            if (nd < better[i].first) better[i] = {nd, label[*w]};
+          }
         }
-      }
+      });
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+        auto& out = local.local();
+        for (size_t i = r.begin(); i != r.end(); ++i)
+          if (better[i].second != UINT32_MAX) {
+            dist[candidates[i]] = better[i].first;
+            label[candidates[i]] = better[i].second;
+            out.push_back(candidates[i]);
+          }
+      });
+      gather(&front);
     }
   }
 
@@ -544,31 +626,110 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   // at can gain: a pair whose two cells did not change in the previous sweep
   // (nor yet in this one) gave no move then and gives none now.
   std::vector<char> active(count, 1), changed(count, 0);
+  // The sweeps in parallel, with the same bits on any thread count. The
+  // elements are cut into slabs along the longest axis (equal counts; how
+  // many depends on the target, never on the threads). A sweep visits the
+  // even slabs at once, then the odd ones, each slab in element order on one
+  // thread, as the one-at-a-time sweep does. A slab only moves its own
+  // elements, and only between cells it owns: a cell whose elements lie in
+  // that slab and its two neighbours only (one owner per colour), so two
+  // slabs running together never touch one cell or each other's elements.
+  // What a slab may not do it leaves to a last pass on one thread, in
+  // element order: moves that involve another slab's cell, elements on a
+  // boundary loop (the loops' counts are shared) and elements with a
+  // neighbour two slabs away (a long edge).
+  const SlabSchedule schedule = slab_schedule(x, adj, label, loop_of, count);
+  const uint32_t slabs = schedule.slabs;
+  std::vector<uint32_t> owner;
+  // in_slab[c * slabs + s]: cell c's elements in slab s, kept by the sweeps' moves.
+  std::vector<uint32_t> in_slab;
+  auto shift = [&](uint32_t v, uint32_t from, uint32_t to) {
+    --in_slab[size_t(from) * slabs + schedule.slab_of[v]];
+    ++in_slab[size_t(to) * slabs + schedule.slab_of[v]];
+  };
+  std::vector<std::vector<uint32_t>> deferred(slabs);
+  std::vector<size_t> slab_moved(slabs);
+  std::vector<uint32_t> last_pass;
+  constexpr uint32_t kAnySlab = UINT32_MAX;
+  // One element's turn: each neighbouring cell in turn, the move of v into it
+  // when it lowers E and keeps both cells disks. False when a move was left
+  // to the last pass.
+  // v may move in `slab`'s turn: one of its elements, not left to the last pass.
+  auto mine = [&](uint32_t v, uint32_t slab) {
+    return slab == kAnySlab || (schedule.slab_of[v] == slab && !schedule.last[v]);
+  };
+  // One element's turn: for every edge from v to another cell, the better of
+  // moving either end into the other's cell, when it lowers E and keeps both
+  // cells disks. False when a move was left to the last pass.
+  auto visit = [&](uint32_t v, uint32_t slab, size_t* moved) {
+    bool done = true;
+    for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
+      const uint32_t a = label[v], b = label[*w];
+      if (a == b || a == UINT32_MAX || b == UINT32_MAX) continue;
+      if (slab != kAnySlab && (owner[a] != slab || owner[b] != slab)) {
+        done = false;
+        continue;
+      }
+      if (!(active[a] | active[b] | changed[a] | changed[b])) continue;
+      const double g_v = gain(v, a, b), g_w = mine(*w, slab) ? gain(*w, b, a) : 0.0;
+      if (!(std::max(g_v, g_w) > 1e-18 * std::abs(energy.back()))) continue;
+      if (g_v >= g_w && allowed(v, a, b)) {
+        move(v, b);
+        shift(v, a, b);
+      } else if (g_w > g_v && allowed(*w, b, a)) {
+        move(*w, a);
+        shift(*w, b, a);
+      } else {
+        continue;
+      }
+      changed[a] = changed[b] = 1;
+      ++*moved;
+    }
+    return done;
+  };
   auto optimize = [&]() {
     converged = false;
     active.assign(clusters_now, 1);
     changed.assign(clusters_now, 0);
+    owner.assign(clusters_now, kAnySlab);
+    in_slab.assign(size_t(clusters_now) * slabs, 0);
+    for (uint32_t v = 0; v < nv; ++v)
+      if (label[v] != UINT32_MAX) ++in_slab[size_t(label[v]) * slabs + schedule.slab_of[v]];
     for (; sweep < options.max_sweeps; ++sweep) {
       size_t moved = 0;
-      for (uint32_t v = 0; v < nv; ++v) {
-        if (label[v] == UINT32_MAX) continue;
-        for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
-          const uint32_t a = label[v], b = label[*w];
-          if (a == b || !(active[a] | active[b] | changed[a] | changed[b])) continue;
-          const double g_v = gain(v, a, b), g_w = gain(*w, b, a);
-          const double best = std::max(g_v, g_w);
-          if (!(best > 1e-18 * std::abs(energy.back()))) continue;
-          if (g_v >= g_w && allowed(v, a, b)) {
-            move(v, b);
-            changed[a] = changed[b] = 1;
-            ++moved;
-          } else if (g_w > g_v && allowed(*w, b, a)) {
-            move(*w, a);
-            changed[a] = changed[b] = 1;
-            ++moved;
+      for (uint32_t colour = 0; colour < 2; ++colour) {
+        // Owners: the slab of this colour among the ones a cell's elements lie in.
+        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, clusters_now, 1024), [&](const tbb::blocked_range<uint32_t>& r) {
+          for (uint32_t c = r.begin(); c != r.end(); ++c) {
+            const uint32_t* row = &in_slab[size_t(c) * slabs];
+            uint32_t lo = 0, hi = slabs;
+            while (lo < slabs && row[lo] == 0) ++lo;
+            while (hi > lo && row[hi - 1] == 0) --hi;
+            owner[c] = kAnySlab;
+            if (lo == slabs || hi - lo > 3) continue;  // no element, or over more than three slabs
+            const uint32_t last = hi - 1;
+            if (lo % 2 == colour) {
+              if (last - lo < 2) owner[c] = lo;  // else lo and last would both own it
+            } else if (lo == last) {
+              owner[c] = lo > 0 ? lo - 1 : (lo + 1 < slabs ? lo + 1 : kAnySlab);
+            } else {
+              owner[c] = lo + 1;
+            }
           }
-        }
+        });
+        tbb::parallel_for(uint32_t(0), (slabs - colour + 1) / 2, [&](uint32_t i) {
+          const uint32_t slab = 2 * i + colour;
+          deferred[slab].clear();
+          slab_moved[slab] = 0;
+          for (uint32_t v : schedule.elements[slab])
+            if (!visit(v, slab, &slab_moved[slab])) deferred[slab].push_back(v);
+        });
+        for (uint32_t slab = colour; slab < slabs; slab += 2) moved += slab_moved[slab];
       }
+      last_pass = schedule.sequential;
+      for (const auto& d : deferred) last_pass.insert(last_pass.end(), d.begin(), d.end());
+      std::sort(last_pass.begin(), last_pass.end());
+      for (uint32_t v : last_pass) visit(v, kAnySlab, &moved);
       moves += moved;
       active.swap(changed);
       std::fill(changed.begin(), changed.end(), 0);

@@ -18,6 +18,11 @@
 // dual vertex would still be non-manifold (a thin part or handle) is split,
 // its elements weighted up so the cells there stay small, and as many flat
 // cells elsewhere are merged away; the sweeps then go on.
+// In parallel with one result on any thread count: the cells grow from their
+// seeds in rounds that read only the last round, and each sweep visits slabs
+// of the surface at once (even ones, then odd ones, each in element order on
+// one thread, moving only elements and cells no other running slab touches),
+// the rest in a last pass on one thread.
 #pragma once
 
 #include <cstdint>
