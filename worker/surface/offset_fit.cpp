@@ -5,6 +5,7 @@
 #include <Eigen/SparseCholesky>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <tbb/blocked_range.h>
@@ -195,22 +196,40 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
     if (round == 0) st.rms_before = weighted_rms(match);
     // Normal equations of the residuals above, in the increment e of the
     // offsets: (A^T W A + lambda D) e = A^T W r - lambda D d.
-    std::vector<Eigen::Triplet<double>> entries;
-    entries.reserve(9 * match.size() / 2);
-    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(free_count), mass = Eigen::VectorXd::Zero(free_count);
+    // The samples on one output triangle share its normal, so their terms
+    // are summed per triangle first (sum w b b^T, sum w b r, sum w b; in the
+    // samples' order): the system then has nine entries per triangle rather
+    // than per sample.
+    std::vector<std::array<double, 15>> per_face(nf, std::array<double, 15>{});
     for (const Match& m : match) {
       if (m.face < 0) continue;
-      const uint32_t* u = &mesh->indices[3 * size_t(m.face)];
-      double coef[3];
-      for (int k = 0; k < 3; ++k) coef[k] = unknown[u[k]] >= 0 ? m.bary[k] * normal[u[k]].dot(m.normal) : 0.0;
+      std::array<double, 15>& s = per_face[size_t(m.face)];
+      for (int k = 0; k < 3; ++k) {
+        const double wb = m.weight * m.bary[k];
+        for (int l = 0; l < 3; ++l) s[3 * k + l] += wb * m.bary[l];
+        s[9 + k] += wb * m.residual;
+        s[12 + k] += wb;
+      }
+    }
+    std::vector<Eigen::Triplet<double>> entries;
+    entries.reserve(9 * nf + nv);
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(free_count), mass = Eigen::VectorXd::Zero(free_count);
+    for (size_t g = 0; g < nf; ++g) {
+      const std::array<double, 15>& s = per_face[g];
+      if (!(s[12] + s[13] + s[14] > 0)) continue;
+      const uint32_t* u = &mesh->indices[3 * g];
+      const Vector3d n = (pos(u[1]) - pos(u[0])).cross(pos(u[2]) - pos(u[0])).normalized();
+      double along[3];  // N_k . n_t
+      for (int k = 0; k < 3; ++k) along[k] = unknown[u[k]] >= 0 ? normal[u[k]].dot(n) : 0.0;
       for (int k = 0; k < 3; ++k) {
         const int64_t i = unknown[u[k]];
         if (i < 0) continue;
-        rhs[i] += m.weight * coef[k] * m.residual;
-        mass[i] += m.weight * m.bary[k];
-        for (int l = 0; l < 3; ++l)
-          if (unknown[u[l]] >= 0 && coef[k] * coef[l] != 0)
-            entries.emplace_back(i, unknown[u[l]], m.weight * coef[k] * coef[l]);
+        rhs[i] += along[k] * s[9 + k];
+        mass[i] += s[12 + k];
+        for (int l = 0; l < 3; ++l) {
+          const double value = along[k] * along[l] * s[3 * k + l];
+          if (unknown[u[l]] >= 0 && value != 0) entries.emplace_back(i, unknown[u[l]], value);
+        }
       }
     }
     const double mean_mass = mass.sum() / double(free_count);
