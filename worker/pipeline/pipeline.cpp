@@ -529,8 +529,8 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           [&]() -> Status {
             std::vector<uint32_t> cell;
             const uint32_t cells = result.cvt.clusters;
-            VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, label, cells, &result.mesh, &cell, &result.cluster_mesh,
-                                              options.cluster_mesh));
+            VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, refined.edges, label, cells, &result.mesh, &cell,
+                                              &result.cluster_mesh, options.cluster_mesh));
             // Each output vertex: its cell's mean importance (area-weighted).
             std::vector<double> sum(cells, 0.0), weight(cells, 0.0);
             const std::vector<double> area = vertex_areas(refined.mesh);

@@ -418,8 +418,15 @@ void relax_tangentially(Mesh* mesh, const std::vector<uint32_t>& source, const s
 Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, uint32_t count, Mesh* out,
                      std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats,
                      const ClusterMeshOptions& options) {
+  return mesh_clusters(surface, mesh_edges(surface), label, count, out, cell_of_vertex, stats, options);
+}
+
+Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vector<uint32_t>& label, uint32_t count,
+                     Mesh* out, std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats,
+                     const ClusterMeshOptions& options) {
   const size_t nv = surface.vertex_count(), nf = surface.face_count();
   if (label.size() != nv) return invalid_argument("cluster mesh: one label per vertex expected");
+  if (edges.vertex_count() != nv) return invalid_argument("cluster mesh: edges of another mesh");
   ClusterMeshStats st;
   st.cells = count;
 
@@ -433,28 +440,37 @@ Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, ui
     return (eig(load3d(surface.positions.data(), t[1])) - a).cross(eig(load3d(surface.positions.data(), t[2])) - a).normalized();
   };
   {
-    std::vector<std::pair<uint64_t, uint32_t>> edges(3 * nf);
-    for (size_t f = 0; f < nf; ++f)
-      for (int c = 0; c < 3; ++c)
-        edges[3 * f + c] = {key2(surface.indices[3 * f + c], surface.indices[3 * f + (c + 1) % 3]), uint32_t(3 * f + c)};
-    tbb::parallel_sort(edges.begin(), edges.end());  // (key, corner) pairs are distinct: one order on any thread count
-    for (size_t i = 0; i < edges.size();) {
-      size_t j = i;
-      while (j < edges.size() && edges[j].first == edges[i].first) ++j;
-      if (j - i == 1) on_boundary[edges[i].second] = 1;
-      // A sharp edge (faces more than 30 degrees apart, the flips' crease):
-      // its length counts towards the cells of both its ends.
-      if (j - i == 2) {
-        const uint32_t u = uint32_t(edges[i].first >> 32), w = uint32_t(edges[i].first);
-        const Vector3d n0 = face_normal(edges[i].second / 3), n1 = face_normal(edges[i + 1].second / 3);
+    // Each edge's faces, from the surface's edge rows (entry(min, max)
+    // numbers an edge once): the first two faces in face order.
+    std::vector<uint32_t> edge_of(3 * nf);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t f = r.begin(); f != r.end(); ++f)
+        for (int c = 0; c < 3; ++c) {
+          const uint32_t u = surface.indices[3 * f + c], w = surface.indices[3 * f + (c + 1) % 3];
+          edge_of[3 * f + c] = edges.entry(std::min(u, w), std::max(u, w));
+        }
+    });
+    std::vector<std::array<uint32_t, 2>> faces_of(edges.neighbor.size(), {UINT32_MAX, UINT32_MAX});
+    for (size_t i = 0; i < 3 * nf; ++i) {
+      const uint32_t e = edge_of[i];
+      if (e == UINT32_MAX) continue;  // a repeated corner: no edge
+      if (edges.faces[e] == 1) on_boundary[i] = 1;
+      auto& two = faces_of[e];
+      (two[0] == UINT32_MAX ? two[0] : two[1]) = uint32_t(i / 3);
+    }
+    // A sharp edge (faces more than 30 degrees apart, the flips' crease): its
+    // length counts towards the cells of both its ends; in (u, w) order.
+    for (uint32_t u = 0; u < nv; ++u)
+      for (uint32_t e = edges.offset[u]; e < edges.offset[u + 1]; ++e) {
+        const uint32_t w = edges.neighbor[e];
+        if (w <= u || edges.faces[e] != 2 || faces_of[e][1] == UINT32_MAX) continue;
+        const Vector3d n0 = face_normal(faces_of[e][0]), n1 = face_normal(faces_of[e][1]);
         if (n0.dot(n1) < kCreaseCos) {
           const double len = (eig(load3d(surface.positions.data(), u)) - eig(load3d(surface.positions.data(), w))).norm();
           if (label[u] != UINT32_MAX) sharp_length[label[u]] += len;
           if (label[w] != UINT32_MAX && label[w] != label[u]) sharp_length[label[w]] += len;
         }
       }
-      i = j;
-    }
   }
   std::vector<char> boundary_cell(count, 0);
 

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "core/mesh.h"
+#include "surface/mesh_edges.h"
 #include "surface/meshing.h"
 #include "surface/offset_fit.h"
 #include "core/status.h"
@@ -48,6 +49,10 @@ struct ClusterMeshOptions {
 // cell_of_vertex: per output vertex, its cell.
 Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, uint32_t count, Mesh* out,
                      std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats,
+                     const ClusterMeshOptions& options = {});
+// The same with the surface's edges already built (mesh_edges(surface)).
+Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vector<uint32_t>& label, uint32_t count,
+                     Mesh* out, std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats,
                      const ClusterMeshOptions& options = {});
 
 }  // namespace vpr

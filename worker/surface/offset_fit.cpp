@@ -134,8 +134,16 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
   // belonging to the cell of its first labelled corner (the refined faces are
   // a sixteenth of a cell: the one-ring searched below covers the cell's
   // neighbourhood either way).
+  std::vector<Vector3d> unit_normal(nf);  // the output's triangles' unit normals (zero: degenerate)
   auto match_all = [&](std::vector<Match>* out) {
     out->assign(sf, Match{});
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 1024), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t g = range.begin(); g != range.end(); ++g) {
+        const uint32_t* u = &mesh->indices[3 * g];
+        const Vector3d n = (pos(u[1]) - pos(u[0])).cross(pos(u[2]) - pos(u[0]));
+        unit_normal[g] = n.squaredNorm() > 0 ? n.normalized() : Vector3d::Zero();
+      }
+    });
     tbb::parallel_for(tbb::blocked_range<size_t>(0, sf, 1024), [&](const tbb::blocked_range<size_t>& range) {
       for (size_t f = range.begin(); f != range.end(); ++f) {
         const uint32_t* t = &surface.indices[3 * f];
@@ -155,20 +163,20 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
           const uint32_t v = verts_of[i];
           for (uint32_t j = face_start[v]; j < face_start[v + 1]; ++j) {
             const uint32_t g = faces_of[j];
-            const uint32_t* u = &mesh->indices[3 * g];
-            const Vector3d x = pos(u[0]), y = pos(u[1]), z = pos(u[2]);
-            const Vector3d n = (y - x).cross(z - x);
+            const Vector3d& n = unit_normal[g];
             // Only triangles parallel to the sample's face, not one that
             // cuts across a crease (its normal between the two sides').
             // Either winding: scans come with faces wound both ways.
-            if (!(n.squaredNorm() > 0) || std::abs(n.normalized().dot(input_normal)) < kSameSide) continue;
+            if (std::abs(n.dot(input_normal)) < kSameSide) continue;  // a degenerate one too (n = 0)
+            const uint32_t* u = &mesh->indices[3 * g];
+            const Vector3d x = pos(u[0]), y = pos(u[1]), z = pos(u[2]);
             const Vector3d bc = closest_barycentric(p, x, y, z);
             const double d = (p - (bc[0] * x + bc[1] * y + bc[2] * z)).squaredNorm();
             if (d < best_d) {
               best_d = d;
               best.face = g;
               best.bary = bc;
-              best.normal = n.normalized();
+              best.normal = n;
               best.residual = best.normal.dot(p - x);
             }
           }
