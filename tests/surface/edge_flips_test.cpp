@@ -1,0 +1,98 @@
+#include "surface/edge_flips.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "core/vec3.h"
+
+namespace vpr {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+Mesh mesh_of(const std::vector<Vec3d>& points, const std::vector<uint32_t>& indices) {
+  Mesh m;
+  for (const Vec3d& p : points) m.positions.insert(m.positions.end(), {float(p.x), float(p.y), float(p.z)});
+  m.indices = indices;
+  return m;
+}
+
+double smallest_angle_deg(const Mesh& m) {
+  double smallest = 180;
+  for (size_t f = 0; f < m.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const Vec3d o = load3d(m.positions.data(), m.indices[3 * f + c]);
+      const Vec3d u = load3d(m.positions.data(), m.indices[3 * f + (c + 1) % 3]) - o;
+      const Vec3d w = load3d(m.positions.data(), m.indices[3 * f + (c + 2) % 3]) - o;
+      smallest = std::min(smallest, std::atan2(norm(cross(u, w)), dot(u, w)) * 180 / kPi);
+    }
+  return smallest;
+}
+
+std::set<std::pair<uint32_t, uint32_t>> edges_of(const Mesh& m) {
+  std::set<std::pair<uint32_t, uint32_t>> e;
+  for (size_t f = 0; f < m.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = m.indices[3 * f + c], b = m.indices[3 * f + (c + 1) % 3];
+      e.insert({std::min(a, b), std::max(a, b)});
+    }
+  return e;
+}
+
+// A cap (x, y, c): c 0.02 from the middle of x-y, so its angle at c is 177.7
+// degrees, in the plane z = 0; the face across x-y, (y, x, d), leans 40
+// degrees out of that plane: a crease to the Delaunay flips, which keep the
+// cap.
+Mesh cap_beside_a_crease() {
+  const double lean = 40 * kPi / 180;
+  return mesh_of({{0, 0, 0}, {2, 0, 0}, {1, 0.02, 0}, {1, -std::cos(lean), std::sin(lean)}}, {0, 1, 2, 1, 0, 3});
+}
+
+TEST(EdgeFlipsTest, DelaunayFlipsKeepACapBesideACrease) {
+  Mesh m = cap_beside_a_crease();
+  delaunay_flips(&m);
+  EXPECT_TRUE(edges_of(m).count({0, 1}));
+  EXPECT_LT(smallest_angle_deg(m), 2.0);
+}
+
+TEST(EdgeFlipsTest, CapIsFlippedAwayAndTheSurfaceBarelyMoves) {
+  Mesh m = cap_beside_a_crease();
+  const double before = smallest_angle_deg(m);
+  EXPECT_EQ(flip_caps(&m), 1u);
+  const auto e = edges_of(m);
+  EXPECT_FALSE(e.count({0, 1}));  // x-y gone
+  EXPECT_TRUE(e.count({2, 3}));   // c-d made
+  EXPECT_EQ(m.face_count(), 2u);
+  EXPECT_GT(smallest_angle_deg(m), 10 * before);
+  // Same orientation as the face it replaces: both new faces turn with (y, x, d).
+  const Vec3d n_other = cross(Vec3d{-2, 0, 0}, Vec3d{-1, -std::cos(40 * kPi / 180), std::sin(40 * kPi / 180)});
+  for (size_t f = 0; f < 2; ++f) {
+    const Vec3d a = load3d(m.positions.data(), m.indices[3 * f]), b = load3d(m.positions.data(), m.indices[3 * f + 1]),
+                c = load3d(m.positions.data(), m.indices[3 * f + 2]);
+    EXPECT_GT(dot(cross(b - a, c - a), n_other), 0) << f;
+  }
+}
+
+TEST(EdgeFlipsTest, CapWhoseFlipWouldFoldStays) {
+  // d beside x's end, almost on the line of x-y: the quad x c y d is not
+  // convex, and c-d would turn (c, x, d) over.
+  Mesh m = mesh_of({{0, 0, 0}, {2, 0, 0}, {1, 0.02, 0}, {-1, -0.01, 0}}, {0, 1, 2, 1, 0, 3});
+  const Mesh before = m;
+  EXPECT_EQ(flip_caps(&m), 0u);
+  EXPECT_EQ(m.indices, before.indices);
+}
+
+TEST(EdgeFlipsTest, PairOfCapsAndBoundaryEdgesStay) {
+  // Two caps back to back (both normals meaningless) and a lone cap whose
+  // long edge is on the boundary: nothing to flip.
+  Mesh pair = mesh_of({{0, 0, 0}, {2, 0, 0}, {1, 0.02, 0}, {1, -0.02, 0}}, {0, 1, 2, 1, 0, 3});
+  EXPECT_EQ(flip_caps(&pair), 0u);
+  Mesh lone = mesh_of({{0, 0, 0}, {2, 0, 0}, {1, 0.02, 0}}, {0, 1, 2});
+  EXPECT_EQ(flip_caps(&lone), 0u);
+}
+
+}  // namespace
+}  // namespace vpr

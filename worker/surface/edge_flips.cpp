@@ -1,0 +1,160 @@
+#include "surface/edge_flips.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <unordered_map>
+
+#include "core/vec3.h"
+
+namespace vpr {
+namespace {
+
+using Eigen::Vector3d;
+
+Vector3d eig(const Vec3d& v) {
+  return {v.x, v.y, v.z};
+}
+
+uint64_t key2(uint32_t a, uint32_t b) {
+  return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
+}
+
+// One pass of edge flips over the interior edges, in one order for one mesh:
+// the edge x-y between the faces (x, y, c) and (y, x, d) becomes c-d when
+// want(x, y, c, d) says so, unless c-d exists already (or an earlier flip of
+// the pass made it) or a face was flipped earlier in the pass. Returns the
+// number of flips.
+template <class Want>
+size_t flip_pass(Mesh* mesh, Want want) {
+  std::unordered_map<uint64_t, std::array<int64_t, 2>> faces_of;
+  for (size_t f = 0; f < mesh->face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      auto [it, added] = faces_of.emplace(key2(mesh->indices[3 * f + c], mesh->indices[3 * f + (c + 1) % 3]),
+                                          std::array<int64_t, 2>{int64_t(f), -1});
+      if (!added) it->second[1] = it->second[1] == -1 ? int64_t(f) : -2;  // -2: more than two faces
+    }
+  std::vector<uint64_t> edges;
+  for (const auto& [e, f] : faces_of)
+    if (f[1] >= 0) edges.push_back(e);
+  std::sort(edges.begin(), edges.end());
+  std::vector<char> touched(mesh->face_count(), 0);
+  size_t flips = 0;
+  for (uint64_t e : edges) {
+    const auto [f0, f1] = faces_of[e];
+    if (touched[f0] || touched[f1]) continue;
+    const uint32_t a = uint32_t(e >> 32), b = uint32_t(e);
+    // Rotate f0 to (x, y, c) with {x, y} = {a, b}; f1 then runs (y, x, d).
+    uint32_t* t0 = &mesh->indices[3 * f0];
+    uint32_t* t1 = &mesh->indices[3 * f1];
+    int k0 = 0;
+    while (!((t0[k0] == a || t0[k0] == b) && (t0[(k0 + 1) % 3] == a || t0[(k0 + 1) % 3] == b))) ++k0;
+    const uint32_t x = t0[k0], y = t0[(k0 + 1) % 3], c = t0[(k0 + 2) % 3];
+    uint32_t d = UINT32_MAX;
+    for (int k = 0; k < 3; ++k)
+      if (t1[k] != a && t1[k] != b) d = t1[k];
+    if (d == UINT32_MAX || c == d || faces_of.count(key2(c, d))) continue;
+    bool consistent = false;  // f1 must run y -> x
+    for (int k = 0; k < 3; ++k) consistent = consistent || (t1[k] == y && t1[(k + 1) % 3] == x);
+    if (!consistent || !want(x, y, c, d)) continue;
+    t0[0] = c, t0[1] = x, t0[2] = d;
+    t1[0] = d, t1[1] = y, t1[2] = c;
+    faces_of.emplace(key2(c, d), std::array<int64_t, 2>{int64_t(f0), int64_t(f1)});  // no second c-d this pass
+    touched[f0] = touched[f1] = 1;
+    ++flips;
+  }
+  return flips;
+}
+
+}  // namespace
+
+// Edge flips towards the Delaunay triangulation of the vertices on the
+// surface: an interior edge whose two opposite angles sum to more than pi is
+// flipped, unless the flip would fold the surface, cross a crease (faces
+// more than 30 degrees apart), or make an edge that exists already. The
+// vertices stay where the CVT put them; only the connectivity improves.
+void delaunay_flips(Mesh* mesh) {
+  auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
+  auto angle_at = [&](uint32_t o, uint32_t a, uint32_t b) {
+    const Vector3d u = (p(a) - p(o)).normalized(), w = (p(b) - p(o)).normalized();
+    return std::acos(std::clamp(u.dot(w), -1.0, 1.0));
+  };
+  auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
+  const double crease = kCreaseCos;
+  for (int pass = 0; pass < 20; ++pass) {
+    const size_t flips = flip_pass(mesh, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+      if (angle_at(c, x, y) + angle_at(d, y, x) <= M_PI + 1e-9) return false;
+      const Vector3d n0 = normal(x, y, c), n1 = normal(y, x, d);
+      if (n0.dot(n1) < crease) return false;
+      const Vector3d m0 = normal(c, x, d), m1 = normal(d, y, c);
+      return m0.dot(n0 + n1) > 0 && m1.dot(n0 + n1) > 0 && m0.dot(m1) >= crease;
+    });
+    if (flips == 0) break;
+  }
+}
+
+// Crease edges the dual missed: two crease vertices next to each other on
+// their crease but not joined, with an edge x-y of two off-crease vertices
+// between them, cut the crease (the triangles (x, y, c) and (y, x, d) lean
+// across it, a chamfer). Flipping x-y to c-d puts the crease back. Wanted
+// where c and d are feature vertices, at least one with a crease line (two
+// corners may be a face's diagonal apart) along which c-d runs (within 20
+// degrees), x and y are not feature vertices (so x-y is not itself a
+// crease, however bent the pair is: a chamfer's two faces often meet at 50
+// degrees), and neither new face turns against the old pair. Delaunay flips
+// never undo these (their faces are more than 30 degrees apart).
+void restore_crease_edges(Mesh* mesh, const std::vector<char>& on_feature, const std::vector<Vector3d>& line) {
+  auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
+  auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
+  constexpr double kCos20 = 0.9396926207859084;
+  auto along = [&](uint32_t v, const Vector3d& dir) { return std::abs(line[v].dot(dir)) >= kCos20; };
+  for (int pass = 0; pass < 8; ++pass) {
+    const size_t flips = flip_pass(mesh, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+      if (!on_feature[c] || !on_feature[d] || on_feature[x] || on_feature[y]) return false;
+      const Vector3d dir = (p(d) - p(c)).normalized();
+      const bool c_line = line[c].squaredNorm() > 0, d_line = line[d].squaredNorm() > 0;
+      if (!(c_line || d_line) || (c_line && !along(c, dir)) || (d_line && !along(d, dir))) return false;
+      const Vector3d n0 = normal(x, y, c), n1 = normal(y, x, d);
+      const Vector3d m0 = normal(c, x, d), m1 = normal(d, y, c);
+      return m0.dot(n0 + n1) > 0 && m1.dot(n0 + n1) > 0;
+    });
+    if (flips == 0) break;
+  }
+}
+
+// Caps left at the end: a triangle (x, y, c) whose corner c lies almost on
+// its edge x-y (an angle over 150 degrees there: c is within tan(15 deg) / 2 of
+// |xy| from the edge) has two needle angles. Its normal means little, so the
+// Delaunay flips may have refused x-y as a crease or a fold. Flipping x-y to
+// c-d moves the surface by no more than that height (the tetrahedron x y c d
+// is flat), so it is wanted whenever the smallest angle of the pair grows and
+// both new faces turn with the other face (x, y, d) by under 60 degrees,
+// creases included: a crease through x-y then runs x-c-y, c beside it.
+size_t flip_caps(Mesh* mesh) {
+  auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
+  auto angle_at = [&](uint32_t o, uint32_t a, uint32_t b) {
+    const Vector3d u = (p(a) - p(o)).normalized(), w = (p(b) - p(o)).normalized();
+    return std::acos(std::clamp(u.dot(w), -1.0, 1.0));
+  };
+  auto smallest = [&](uint32_t a, uint32_t b, uint32_t c) {
+    return std::min({angle_at(a, b, c), angle_at(b, c, a), angle_at(c, a, b)});
+  };
+  auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
+  const double cap = 150 * M_PI / 180;
+  size_t total = 0;
+  for (int pass = 0; pass < 8; ++pass) {
+    const size_t flips = flip_pass(mesh, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+      const bool c_cap = angle_at(c, x, y) > cap, d_cap = angle_at(d, y, x) > cap;
+      if (c_cap == d_cap) return false;  // neither a cap, or both (their normals say nothing)
+      const double before = std::min(smallest(x, y, c), smallest(y, x, d));
+      if (!(std::min(smallest(c, x, d), smallest(d, y, c)) > before)) return false;
+      const Vector3d other = c_cap ? normal(y, x, d) : normal(x, y, c);
+      return normal(c, x, d).dot(other) > 0.5 && normal(d, y, c).dot(other) > 0.5;
+    });
+    total += flips;
+    if (flips == 0) break;
+  }
+  return total;
+}
+
+}  // namespace vpr

@@ -1,0 +1,35 @@
+// Edge flips on a triangle mesh: the connectivity changes, the vertices stay.
+// The surface back half (cluster_mesh.h) runs them after the dual of the CVT
+// cells: towards the Delaunay triangulation, to put back crease edges the
+// dual cut, and to remove caps (a corner almost on its opposite edge).
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <cstdint>
+#include <vector>
+
+#include "core/mesh.h"
+
+namespace vpr {
+
+// cos(30 degrees): faces further apart than this meet at a crease.
+constexpr double kCreaseCos = 0.8660254037844386;
+
+// Passes of Delaunay flips: an interior edge whose two opposite angles sum
+// to more than pi is flipped, unless the flip would fold the surface, cross a
+// crease (faces more than 30 degrees apart), or make an edge that exists
+// already.
+void delaunay_flips(Mesh* mesh);
+
+// Crease edges the dual missed, flipped back (see edge_flips.cpp): on_feature
+// per vertex (a crease or corner cell's vertex), line per vertex (its crease
+// direction; zero for a corner or a free vertex).
+void restore_crease_edges(Mesh* mesh, const std::vector<char>& on_feature, const std::vector<Eigen::Vector3d>& line);
+
+// Caps flipped away: a triangle with an angle over 150 degrees whose long
+// edge's flip makes the pair's smallest angle larger (see edge_flips.cpp).
+// Returns the number of flips.
+size_t flip_caps(Mesh* mesh);
+
+}  // namespace vpr
