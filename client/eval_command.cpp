@@ -69,7 +69,10 @@ nlohmann::json quality_json(const MeshQuality& q) {
           {"boundary_loops", q.boundary_loops},
           {"components", q.components},
           {"closed", q.closed},
-          {"euler_characteristic", q.euler_characteristic}};
+          {"euler_characteristic", q.euler_characteristic},
+          {"welded", {{"boundary_loops", q.welded_boundary_loops},
+                      {"components", q.welded_components},
+                      {"closed", q.welded_closed}}}};
 }
 
 void print_quality(const char* label, const MeshQuality& q) {

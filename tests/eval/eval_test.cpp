@@ -300,6 +300,41 @@ TEST(MeshQuality, OpenCubeHasOneLoopOfFourEdges) {
   EXPECT_NEAR(q.share_angles_below_30, 0.0, 0.0);
 }
 
+TEST(MeshQuality, WeldedCountsSeeThroughSeams) {
+  // A cube whose twelve triangles are separate (each with its own corners, as
+  // an exporter writes a flat-shaded mesh split at its normal seams), its
+  // zero coordinates written as -0 in the first half and +0 in the second:
+  // twelve parts unwelded, one closed cube welded. An out-of-range index
+  // stays invalid after the weld.
+  Mesh cube_mesh = cube();
+  Mesh split;
+  for (size_t f = 0; f < cube_mesh.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t v = cube_mesh.indices[3 * f + c];
+      split.positions.insert(split.positions.end(), cube_mesh.positions.begin() + 3 * v,
+                             cube_mesh.positions.begin() + 3 * v + 3);
+      split.indices.push_back(uint32_t(3 * f + c));
+    }
+  for (float& x : split.positions)
+    if (x == 0 && &x < &split.positions[split.positions.size() / 2]) x = -0.0f;
+  const MeshQuality q = mesh_quality(split);
+  EXPECT_EQ(q.components, 12u);
+  EXPECT_EQ(q.boundary_loops, 12u);
+  EXPECT_FALSE(q.closed);
+  EXPECT_EQ(q.welded_components, 1u);
+  EXPECT_EQ(q.welded_boundary_loops, 0u);
+  EXPECT_TRUE(q.welded_closed);
+  const MeshQuality plain = mesh_quality(cube_mesh);  // nothing to weld: the same counts
+  EXPECT_EQ(plain.welded_components, plain.components);
+  EXPECT_EQ(plain.welded_closed, plain.closed);
+  split.indices.push_back(uint32_t(split.vertex_count() + 5));
+  split.indices.push_back(0);
+  split.indices.push_back(1);
+  const MeshQuality bad = mesh_quality(split);
+  EXPECT_EQ(bad.invalid_faces, 1u);
+  EXPECT_TRUE(bad.welded_closed);
+}
+
 TEST(MeshQuality, TwoCubesTwoComponents) {
   Mesh m;
   add_cube(&m);

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstring>
 #include <string>
+#include <unordered_map>
 
 #include "core/vec3.h"
 
@@ -249,6 +251,37 @@ double mean_edge_length(const Mesh& mesh) {
     }
   }
   return sum / (3.0 * nf);
+}
+
+Mesh weld_exact(const Mesh& mesh) {
+  struct Key {
+    uint32_t x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      return (size_t(k.x) * 73856093u) ^ (size_t(k.y) * 19349663u) ^ (size_t(k.z) * 83492791u);
+    }
+  };
+  std::unordered_map<Key, uint32_t, KeyHash> ids;
+  ids.reserve(mesh.vertex_count());
+  std::vector<uint32_t> id(mesh.vertex_count());
+  Mesh out;
+  for (size_t v = 0; v < mesh.vertex_count(); ++v) {
+    // -0 and +0 are one position (an exporter writes both): + 0.0f makes -0 +0.
+    const float canonical[3] = {mesh.positions[3 * v] + 0.0f, mesh.positions[3 * v + 1] + 0.0f,
+                                mesh.positions[3 * v + 2] + 0.0f};
+    Key k;
+    std::memcpy(&k, canonical, sizeof k);
+    auto [it, added] = ids.emplace(k, uint32_t(ids.size()));
+    if (added) out.positions.insert(out.positions.end(), &mesh.positions[3 * v], &mesh.positions[3 * v] + 3);
+    id[v] = it->second;
+  }
+  out.indices.reserve(mesh.indices.size());
+  for (uint32_t i : mesh.indices) out.indices.push_back(i < id.size() ? id[i] : UINT32_MAX);  // out of range stays so
+  out.origin = mesh.origin;
+  out.scale = mesh.scale;
+  return out;
 }
 
 }  // namespace vpr

@@ -130,6 +130,12 @@ bool absolute_fits_float(const Mesh& mesh);
 // left empty when every vertex is used (nothing changes then). Returns the
 // number of vertices dropped.
 size_t remove_unreferenced_vertices(Mesh* mesh, std::vector<uint32_t>* used);
+
+// The positions and faces with corners at exactly the same position merged
+// into one vertex (first occurrence first), so that a soup or an OBJ split at
+// texture seams has the connectivity its surface implies. Orientation is not
+// touched; other attributes are not carried.
+Mesh weld_exact(const Mesh& mesh);
 size_t unreferenced_vertex_count(const Mesh& mesh);
 
 // Area of each face (#F doubles) and their sum; degenerate faces have area 0.

@@ -46,9 +46,8 @@ struct EdgeInfo {
   uint32_t faces;
 };
 
-}  // namespace
-
-MeshQuality mesh_quality(const Mesh& mesh) {
+// Everything but the welded counts.
+MeshQuality unwelded_quality(const Mesh& mesh) {
   MeshQuality q;
   const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
   const float* p = mesh.positions.data();
@@ -165,6 +164,23 @@ MeshQuality mesh_quality(const Mesh& mesh) {
   }
   q.closed = valid_faces > 0 && q.boundary_edges == 0 && q.non_manifold_edges == 0;
   q.euler_characteristic = long(referenced_count) - long(edges.size()) + long(valid_faces);
+  return q;
+}
+
+}  // namespace
+
+MeshQuality mesh_quality(const Mesh& mesh) {
+  MeshQuality q = unwelded_quality(mesh);
+  q.welded_boundary_loops = q.boundary_loops;
+  q.welded_components = q.components;
+  q.welded_closed = q.closed;
+  const Mesh welded = weld_exact(mesh);
+  if (welded.vertex_count() < mesh.vertex_count()) {
+    const MeshQuality w = unwelded_quality(welded);
+    q.welded_boundary_loops = w.boundary_loops;
+    q.welded_components = w.components;
+    q.welded_closed = w.closed;
+  }
   return q;
 }
 

@@ -21,6 +21,12 @@ struct MeshQuality {
   size_t components = 0;             // faces connected by shared vertices
   bool closed = false;               // at least one face, no boundary edge and no non-manifold edge
   long euler_characteristic = 0;     // V - E + F, V = vertices referenced by a valid face
+  // The same three counts after merging vertices at exactly the same position
+  // (weld_exact): an exporter that splits a surface at its texture or
+  // normal seams leaves boundary loops and parts that a person does not see.
+  size_t welded_boundary_loops = 0;
+  size_t welded_components = 0;
+  bool welded_closed = false;
 };
 
 // Works on any soup: duplicated faces count as extra incidences of their edges

@@ -23,34 +23,6 @@ Mesh compact(const std::vector<float>& positions, const std::vector<uint32_t>& i
   return out;
 }
 
-Mesh weld_exact(const Mesh& mesh) {
-  struct Key {
-    uint32_t x, y, z;
-    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
-  };
-  struct KeyHash {
-    size_t operator()(const Key& k) const {
-      return (size_t(k.x) * 73856093u) ^ (size_t(k.y) * 19349663u) ^ (size_t(k.z) * 83492791u);
-    }
-  };
-  std::unordered_map<Key, uint32_t, KeyHash> ids;
-  ids.reserve(mesh.vertex_count());
-  std::vector<uint32_t> id(mesh.vertex_count());
-  Mesh out;
-  for (size_t v = 0; v < mesh.vertex_count(); ++v) {
-    Key k;
-    std::memcpy(&k, &mesh.positions[3 * v], sizeof k);
-    auto [it, added] = ids.emplace(k, uint32_t(ids.size()));
-    if (added) out.positions.insert(out.positions.end(), &mesh.positions[3 * v], &mesh.positions[3 * v] + 3);
-    id[v] = it->second;
-  }
-  out.indices.reserve(mesh.indices.size());
-  for (uint32_t i : mesh.indices) out.indices.push_back(id[i]);
-  out.origin = mesh.origin;
-  out.scale = mesh.scale;
-  return out;
-}
-
 Status check_input(const Mesh& input, uint32_t target_vertices, const char* method) {
   if (target_vertices == 0) return invalid_argument(std::string(method) + ": the target vertex count must be positive");
   Status s = validate_mesh(input);

@@ -19,11 +19,6 @@ inline double ms_since(Clock::time_point t) {
 // they reference, renumbered in order of first use.
 Mesh compact(const std::vector<float>& positions, const std::vector<uint32_t>& indices);
 
-// The mesh with corners at exactly the same position merged into one vertex
-// (first occurrence first), so that a soup or an OBJ split at texture seams
-// has the connectivity its surface implies. Orientation is not touched.
-Mesh weld_exact(const Mesh& mesh);
-
 // validate_mesh and a positive target, with the method's name in the message.
 Status check_input(const Mesh& input, uint32_t target_vertices, const char* method);
 
