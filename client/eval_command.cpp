@@ -68,10 +68,12 @@ nlohmann::json quality_json(const MeshQuality& q) {
           {"boundary_edges", q.boundary_edges},
           {"boundary_loops", q.boundary_loops},
           {"components", q.components},
+          {"sheets", q.sheets},
           {"closed", q.closed},
           {"euler_characteristic", q.euler_characteristic},
           {"welded", {{"boundary_loops", q.welded_boundary_loops},
                       {"components", q.welded_components},
+                      {"sheets", q.welded_sheets},
                       {"closed", q.welded_closed}}}};
 }
 

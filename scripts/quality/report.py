@@ -120,8 +120,9 @@ def main():
          "gray renderings (14 views, 512 px, windows that see surface; higher is better), FLIP "
          "(`flip-evaluator`, LDR, 67 ppd, mean over the same 14 renderings, whole images; lower is better), mean "
          "symmetric Hausdorff distance (200k samples a side, % of the input's bounding-box diagonal), the share "
-         "of angles under 30° and the smallest angle, boundary loops, connected parts and non-manifold "
-         "edges/vertices against the input's. MeshLab is `meshing_isotropic_explicit_remeshing(adaptive=True)` "
+         "of angles under 30° and the smallest angle, boundary loops, parts (faces joined across edges) and "
+         "non-manifold edges/vertices against the input's; loops, parts and closedness counted after merging "
+         "vertices at exactly the same position on both sides (an exporter's seams are not holes). MeshLab is `meshing_isotropic_explicit_remeshing(adaptive=True)` "
          "with defaults otherwise, its target edge length searched to land within 2% of the vertex count (the "
          "count reached is in each table). `time` is one run's wall time on a loaded 2-core machine, not a "
          "benchmark.", ""]

@@ -321,7 +321,9 @@ TEST(MeshQuality, WeldedCountsSeeThroughSeams) {
   EXPECT_EQ(q.components, 12u);
   EXPECT_EQ(q.boundary_loops, 12u);
   EXPECT_FALSE(q.closed);
+  EXPECT_EQ(q.sheets, 12u);
   EXPECT_EQ(q.welded_components, 1u);
+  EXPECT_EQ(q.welded_sheets, 1u);
   EXPECT_EQ(q.welded_boundary_loops, 0u);
   EXPECT_TRUE(q.welded_closed);
   const MeshQuality plain = mesh_quality(cube_mesh);  // nothing to weld: the same counts
@@ -386,6 +388,7 @@ TEST(MeshQuality, TwoTetrahedraSharingOneVertex) {
   EXPECT_EQ(q.non_manifold_vertices, 1u);
   EXPECT_EQ(q.non_manifold_edges, 0u);
   EXPECT_EQ(q.components, 1u);
+  EXPECT_EQ(q.sheets, 2u);  // joined at a vertex only
   EXPECT_TRUE(q.closed);
   EXPECT_EQ(q.euler_characteristic, 7 - 12 + 8);
 }

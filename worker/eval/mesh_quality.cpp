@@ -97,6 +97,7 @@ MeshQuality unwelded_quality(const Mesh& mesh) {
   edges.reserve(3 * nf / 2 + 16);
   DisjointSets fans(3 * nf);
   DisjointSets vertex_sets(nv);
+  DisjointSets face_sets(nf);  // faces joined across shared edges: sheets
   // First corner of face f at vertex v (v is one of its corners).
   auto corner_of = [&](uint32_t f, uint32_t v) {
     const uint32_t k = idx[3 * f] == v ? 0 : idx[3 * f + 1] == v ? 1 : 2;
@@ -123,6 +124,7 @@ MeshQuality unwelded_quality(const Mesh& mesh) {
       if (inserted) continue;
       ++it->second.faces;
       const uint32_t g = it->second.first_face;
+      face_sets.unite(uint32_t(f), g);
       fans.unite(corner_of(uint32_t(f), a), corner_of(g, a));
       fans.unite(corner_of(uint32_t(f), b), corner_of(g, b));
     }
@@ -145,6 +147,7 @@ MeshQuality unwelded_quality(const Mesh& mesh) {
   for (size_t f = 0; f < nf; ++f) {
     if (!valid[f]) continue;
     ++valid_faces;
+    if (face_sets.find(uint32_t(f)) == f) ++q.sheets;
     for (int k = 0; k < 3; ++k) {
       const uint32_t v = idx[3 * f + k], root = fans.find(uint32_t(3 * f + k));
       referenced[v] = 1;
@@ -173,12 +176,14 @@ MeshQuality mesh_quality(const Mesh& mesh) {
   MeshQuality q = unwelded_quality(mesh);
   q.welded_boundary_loops = q.boundary_loops;
   q.welded_components = q.components;
+  q.welded_sheets = q.sheets;
   q.welded_closed = q.closed;
   const Mesh welded = weld_exact(mesh);
   if (welded.vertex_count() < mesh.vertex_count()) {
     const MeshQuality w = unwelded_quality(welded);
     q.welded_boundary_loops = w.boundary_loops;
     q.welded_components = w.components;
+    q.welded_sheets = w.sheets;
     q.welded_closed = w.closed;
   }
   return q;

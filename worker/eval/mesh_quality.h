@@ -19,6 +19,10 @@ struct MeshQuality {
   size_t boundary_edges = 0;         // edges with exactly one incident face
   size_t boundary_loops = 0;         // connected components of the boundary-edge graph
   size_t components = 0;             // faces connected by shared vertices
+  // Faces connected across shared edges: the surface's pieces. Two sheets that
+  // touch at a vertex only are one component but two sheets, and a 2-manifold
+  // remesh must keep them apart (a vertex where they touch is non-manifold).
+  size_t sheets = 0;
   bool closed = false;               // at least one face, no boundary edge and no non-manifold edge
   long euler_characteristic = 0;     // V - E + F, V = vertices referenced by a valid face
   // The same three counts after merging vertices at exactly the same position
@@ -26,6 +30,7 @@ struct MeshQuality {
   // normal seams leaves boundary loops and parts that a person does not see.
   size_t welded_boundary_loops = 0;
   size_t welded_components = 0;
+  size_t welded_sheets = 0;
   bool welded_closed = false;
 };
 
