@@ -72,7 +72,9 @@ print(j["input"]["vertices"], j["output"]["vertices"], "%.4f" % v["ssim"], "yes"
     "$bin" local "$m" --lod "$lod" -o "$work/sweep.ply" --json "${flags[@]}" >/dev/null
     i=0
     for c in ${lod//,/ }; do
-      s=$("$bin" eval "$m" "$work/sweep.lod$i.ply" --views 6 --json | python3 -c 'import json,sys; print("%.4f" % json.load(sys.stdin)["visual"]["ssim_mean"])')
+      level="$work/sweep.lod$i.ply"
+      [ "$sweep" -gt 1 ] || level="$work/sweep.ply"  # one level: the file as named
+      s=$("$bin" eval "$m" "$level" --views 6 --json | python3 -c 'import json,sys; print("%.4f" % json.load(sys.stdin)["visual"]["ssim_mean"])')
       below+="$c: $s; "
       i=$((i + 1))
     done
