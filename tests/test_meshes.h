@@ -8,10 +8,26 @@
 #include <map>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "core/mesh.h"
+#include "core/vec3.h"
 
 namespace vpr::testing {
+
+// Every interior angle of every face, in degrees (three per face, in corner order).
+inline std::vector<double> triangle_angles_deg(const Mesh& m) {
+  std::vector<double> angles;
+  angles.reserve(3 * m.face_count());
+  for (size_t f = 0; f < m.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const Vec3d o = load3d(m.positions.data(), m.indices[3 * f + c]);
+      const Vec3d u = load3d(m.positions.data(), m.indices[3 * f + (c + 1) % 3]) - o;
+      const Vec3d w = load3d(m.positions.data(), m.indices[3 * f + (c + 2) % 3]) - o;
+      angles.push_back(std::atan2(norm(cross(u, w)), dot(u, w)) * 180 / 3.14159265358979323846);
+    }
+  return angles;
+}
 
 // Icosphere of the given radius: 12 vertices subdivided `levels` times.
 inline Mesh icosphere(int levels, float radius = 1.0f) {

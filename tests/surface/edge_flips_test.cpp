@@ -7,6 +7,7 @@
 #include <set>
 
 #include "core/vec3.h"
+#include "test_meshes.h"
 
 namespace vpr {
 namespace {
@@ -21,15 +22,8 @@ Mesh mesh_of(const std::vector<Vec3d>& points, const std::vector<uint32_t>& indi
 }
 
 double smallest_angle_deg(const Mesh& m) {
-  double smallest = 180;
-  for (size_t f = 0; f < m.face_count(); ++f)
-    for (int c = 0; c < 3; ++c) {
-      const Vec3d o = load3d(m.positions.data(), m.indices[3 * f + c]);
-      const Vec3d u = load3d(m.positions.data(), m.indices[3 * f + (c + 1) % 3]) - o;
-      const Vec3d w = load3d(m.positions.data(), m.indices[3 * f + (c + 2) % 3]) - o;
-      smallest = std::min(smallest, std::atan2(norm(cross(u, w)), dot(u, w)) * 180 / kPi);
-    }
-  return smallest;
+  const std::vector<double> angles = testing::triangle_angles_deg(m);
+  return *std::min_element(angles.begin(), angles.end());
 }
 
 std::set<std::pair<uint32_t, uint32_t>> edges_of(const Mesh& m) {

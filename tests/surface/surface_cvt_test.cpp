@@ -340,15 +340,9 @@ TEST(SurfaceCvtTest, OffsetFitHalvesTheMeanDistanceOnASphere) {
 
 // The share of a mesh's triangle angles under `degrees`.
 double share_of_angles_below(const Mesh& m, double degrees) {
-  size_t below = 0;
-  for (size_t f = 0; f < m.face_count(); ++f)
-    for (int c = 0; c < 3; ++c) {
-      const Vec3d o = load3d(m.positions.data(), m.indices[3 * f + c]);
-      const Vec3d u = load3d(m.positions.data(), m.indices[3 * f + (c + 1) % 3]) - o;
-      const Vec3d w = load3d(m.positions.data(), m.indices[3 * f + (c + 2) % 3]) - o;
-      below += std::atan2(norm(cross(u, w)), dot(u, w)) < degrees * kPi / 180;
-    }
-  return double(below) / double(3 * m.face_count());
+  const std::vector<double> angles = testing::triangle_angles_deg(m);
+  return double(std::count_if(angles.begin(), angles.end(), [&](double a) { return a < degrees; })) /
+         double(angles.size());
 }
 
 TEST(SurfaceCvtTest, RelaxationRemovesSmallAnglesAndKeepsTheCreases) {
