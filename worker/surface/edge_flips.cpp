@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <unordered_map>
 
 #include "core/vec3.h"
 
@@ -24,45 +23,77 @@ uint64_t key2(uint32_t a, uint32_t b) {
 // the edge x-y between the faces (x, y, c) and (y, x, d) becomes c-d when
 // want(x, y, c, d) says so, unless c-d exists already (or an earlier flip of
 // the pass made it) or a face was flipped earlier in the pass. Returns the
-// number of flips.
+// number of flips. Edges are visited in (min end, max end) order; each
+// vertex's row lists the edges to higher vertices (no hashing: a pass runs
+// many times per job).
 template <class Want>
 size_t flip_pass(Mesh* mesh, Want want) {
-  std::unordered_map<uint64_t, std::array<int64_t, 2>> faces_of;
-  for (size_t f = 0; f < mesh->face_count(); ++f)
+  const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
+  struct Slot {
+    uint32_t other;
+    int64_t face[2];  // the first two faces; face[1] -2: more than two
+  };
+  std::vector<uint32_t> start(nv + 1, 0);
+  for (size_t f = 0; f < nf; ++f)
     for (int c = 0; c < 3; ++c) {
-      auto [it, added] = faces_of.emplace(key2(mesh->indices[3 * f + c], mesh->indices[3 * f + (c + 1) % 3]),
-                                          std::array<int64_t, 2>{int64_t(f), -1});
-      if (!added) it->second[1] = it->second[1] == -1 ? int64_t(f) : -2;  // -2: more than two faces
+      const uint32_t u = mesh->indices[3 * f + c], w = mesh->indices[3 * f + (c + 1) % 3];
+      ++start[std::min(u, w) + 1];
     }
-  std::vector<uint64_t> edges;
-  for (const auto& [e, f] : faces_of)
-    if (f[1] >= 0) edges.push_back(e);
-  std::sort(edges.begin(), edges.end());
-  std::vector<char> touched(mesh->face_count(), 0);
+  for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<Slot> slots(start[nv]);
+  std::vector<uint32_t> used(nv, 0);  // slots of each row in use
+  for (size_t f = 0; f < nf; ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t u = mesh->indices[3 * f + c], w = mesh->indices[3 * f + (c + 1) % 3];
+      const uint32_t lo = std::min(u, w), hi = std::max(u, w);
+      Slot* row = &slots[start[lo]];
+      uint32_t k = 0;
+      while (k < used[lo] && row[k].other != hi) ++k;
+      if (k == used[lo]) {
+        row[used[lo]++] = {hi, {int64_t(f), -1}};
+      } else {
+        int64_t& second = row[k].face[1];
+        second = second == -1 ? int64_t(f) : -2;  // -2: more than two faces
+      }
+    }
+  for (size_t v = 0; v < nv; ++v)
+    std::sort(slots.begin() + start[v], slots.begin() + start[v] + used[v],
+              [](const Slot& a, const Slot& b) { return a.other < b.other; });
+  std::vector<uint64_t> made;  // edges this pass's flips made, kept sorted
+  auto exists = [&](uint32_t a, uint32_t b) {
+    const uint32_t lo = std::min(a, b), hi = std::max(a, b);
+    for (uint32_t k = start[lo]; k < start[lo] + used[lo]; ++k)
+      if (slots[k].other == hi) return true;
+    return std::binary_search(made.begin(), made.end(), key2(a, b));
+  };
+  std::vector<char> touched(nf, 0);
   size_t flips = 0;
-  for (uint64_t e : edges) {
-    const auto [f0, f1] = faces_of[e];
-    if (touched[f0] || touched[f1]) continue;
-    const uint32_t a = uint32_t(e >> 32), b = uint32_t(e);
-    // Rotate f0 to (x, y, c) with {x, y} = {a, b}; f1 then runs (y, x, d).
-    uint32_t* t0 = &mesh->indices[3 * f0];
-    uint32_t* t1 = &mesh->indices[3 * f1];
-    int k0 = 0;
-    while (!((t0[k0] == a || t0[k0] == b) && (t0[(k0 + 1) % 3] == a || t0[(k0 + 1) % 3] == b))) ++k0;
-    const uint32_t x = t0[k0], y = t0[(k0 + 1) % 3], c = t0[(k0 + 2) % 3];
-    uint32_t d = UINT32_MAX;
-    for (int k = 0; k < 3; ++k)
-      if (t1[k] != a && t1[k] != b) d = t1[k];
-    if (d == UINT32_MAX || c == d || faces_of.count(key2(c, d))) continue;
-    bool consistent = false;  // f1 must run y -> x
-    for (int k = 0; k < 3; ++k) consistent = consistent || (t1[k] == y && t1[(k + 1) % 3] == x);
-    if (!consistent || !want(x, y, c, d)) continue;
-    t0[0] = c, t0[1] = x, t0[2] = d;
-    t1[0] = d, t1[1] = y, t1[2] = c;
-    faces_of.emplace(key2(c, d), std::array<int64_t, 2>{int64_t(f0), int64_t(f1)});  // no second c-d this pass
-    touched[f0] = touched[f1] = 1;
-    ++flips;
-  }
+  for (uint32_t a = 0; a < nv; ++a)
+    for (uint32_t j = start[a]; j < start[a] + used[a]; ++j) {
+      const Slot& slot = slots[j];
+      if (slot.face[1] < 0) continue;
+      const int64_t f0 = slot.face[0], f1 = slot.face[1];
+      if (touched[f0] || touched[f1]) continue;
+      const uint32_t b = slot.other;
+      // Rotate f0 to (x, y, c) with {x, y} = {a, b}; f1 then runs (y, x, d).
+      uint32_t* t0 = &mesh->indices[3 * f0];
+      uint32_t* t1 = &mesh->indices[3 * f1];
+      int k0 = 0;
+      while (!((t0[k0] == a || t0[k0] == b) && (t0[(k0 + 1) % 3] == a || t0[(k0 + 1) % 3] == b))) ++k0;
+      const uint32_t x = t0[k0], y = t0[(k0 + 1) % 3], c = t0[(k0 + 2) % 3];
+      uint32_t d = UINT32_MAX;
+      for (int k = 0; k < 3; ++k)
+        if (t1[k] != a && t1[k] != b) d = t1[k];
+      if (d == UINT32_MAX || c == d || exists(c, d)) continue;
+      bool consistent = false;  // f1 must run y -> x
+      for (int k = 0; k < 3; ++k) consistent = consistent || (t1[k] == y && t1[(k + 1) % 3] == x);
+      if (!consistent || !want(x, y, c, d)) continue;
+      t0[0] = c, t0[1] = x, t0[2] = d;
+      t1[0] = d, t1[1] = y, t1[2] = c;
+      made.insert(std::upper_bound(made.begin(), made.end(), key2(c, d)), key2(c, d));  // no second c-d this pass
+      touched[f0] = touched[f1] = 1;
+      ++flips;
+    }
   return flips;
 }
 
