@@ -73,27 +73,49 @@ uint64_t key2(uint32_t a, uint32_t b) {
 // how many were closed.
 template <class OnBoundary>
 size_t close_dual_holes(std::vector<std::array<uint32_t, 3>>* tris, OnBoundary on_boundary, size_t* kept) {
-  std::set<std::pair<uint32_t, uint32_t>> directed;
+  // Directed edges as sorted keys (u << 32 | v); the fans' edges go to a
+  // second sorted list, so that later fans see them.
+  auto key = [](uint32_t u, uint32_t v) { return uint64_t(u) << 32 | v; };
+  std::vector<uint64_t> directed, added;
+  directed.reserve(3 * tris->size());
+  uint32_t top = 0;
   for (const auto& t : *tris)
-    for (int c = 0; c < 3; ++c) directed.insert({t[c], t[(c + 1) % 3]});
-  std::map<uint32_t, std::vector<uint32_t>> next;
-  for (const auto& [u, v] : directed)
-    if (!directed.count({v, u})) next[u].push_back(v);
-  std::set<uint32_t> done;
+    for (int c = 0; c < 3; ++c) {
+      directed.push_back(key(t[c], t[(c + 1) % 3]));
+      top = std::max(top, t[c]);
+    }
+  std::sort(directed.begin(), directed.end());
+  directed.erase(std::unique(directed.begin(), directed.end()), directed.end());
+  auto has = [&](uint32_t u, uint32_t v) {
+    return std::binary_search(directed.begin(), directed.end(), key(u, v)) ||
+           std::binary_search(added.begin(), added.end(), key(u, v));
+  };
+  // Boundary edges (no opposite), in (u, v) order: next[u] is a run of them.
+  std::vector<uint64_t> open;
+  for (uint64_t e : directed)
+    if (!std::binary_search(directed.begin(), directed.end(), key(uint32_t(e), uint32_t(e >> 32)))) open.push_back(e);
+  auto outs = [&](uint32_t u) {
+    const auto lo = std::lower_bound(open.begin(), open.end(), key(u, 0));
+    const auto hi = std::lower_bound(lo, open.end(), key(u + 1, 0));
+    return std::make_pair(lo, hi);
+  };
+  std::vector<char> done(size_t(top) + 1, 0);
   size_t closed = 0;
   *kept = 0;
-  for (const auto& [start, outs] : next) {
-    if (done.count(start)) continue;
+  for (size_t i = 0; i < open.size(); ++i) {
+    const uint32_t start = uint32_t(open[i] >> 32);
+    if (i > 0 && uint32_t(open[i - 1] >> 32) == start) continue;  // one turn per vertex
+    if (done[start]) continue;
     std::vector<uint32_t> loop;
     bool simple = false, all_boundary = true;
     uint32_t v = start;
     while (true) {
-      auto it = next.find(v);
-      if (it == next.end() || it->second.size() != 1 || done.count(v)) break;
-      done.insert(v);
+      const auto [lo, hi] = outs(v);
+      if (hi - lo != 1 || done[v]) break;
+      done[v] = 1;
       loop.push_back(v);
       all_boundary = all_boundary && on_boundary(v);
-      v = it->second[0];
+      v = uint32_t(*lo);
       if (v == start) {
         simple = true;
         break;
@@ -105,7 +127,7 @@ size_t close_dual_holes(std::vector<std::array<uint32_t, 3>>* tris, OnBoundary o
       continue;
     }
     const size_t n = loop.size();
-    auto is_edge = [&](uint32_t a, uint32_t b) { return directed.count({a, b}) || directed.count({b, a}); };
+    auto is_edge = [&](uint32_t a, uint32_t b) { return has(a, b) || has(b, a); };
     size_t apex = 0;
     for (; apex < n; ++apex) {
       bool clear = true;
@@ -117,9 +139,8 @@ size_t close_dual_holes(std::vector<std::array<uint32_t, 3>>* tris, OnBoundary o
     // The loop runs along the triangles' edges; the patch runs against it.
     for (size_t i = 1; i + 1 < n; ++i) {
       tris->push_back({loop[0], loop[i + 1], loop[i]});
-      directed.insert({loop[0], loop[i + 1]});
-      directed.insert({loop[i + 1], loop[i]});
-      directed.insert({loop[i], loop[0]});
+      for (uint64_t e : {key(loop[0], loop[i + 1]), key(loop[i + 1], loop[i]), key(loop[i], loop[0])})
+        added.insert(std::upper_bound(added.begin(), added.end(), e), e);
     }
     ++closed;
   }
@@ -405,17 +426,24 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       (two[0] == UINT32_MAX ? two[0] : two[1]) = uint32_t(i / 3);
     }
     // A sharp edge (faces more than 30 degrees apart, the flips' crease): its
-    // length counts towards the cells of both its ends; in (u, w) order.
+    // length counts towards the cells of both its ends; in (u, w) order. The
+    // test per edge in parallel, the sums in edge order (the same bits on any
+    // thread count).
+    std::vector<char> sharp(edges.neighbor.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 2048), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t u = r.begin(); u != r.end(); ++u)
+        for (uint32_t e = edges.offset[u]; e < edges.offset[u + 1]; ++e) {
+          if (edges.neighbor[e] <= u || edges.faces[e] != 2 || faces_of[e][1] == UINT32_MAX) continue;
+          sharp[e] = face_normal(faces_of[e][0]).dot(face_normal(faces_of[e][1])) < kCreaseCos;
+        }
+    });
     for (uint32_t u = 0; u < nv; ++u)
       for (uint32_t e = edges.offset[u]; e < edges.offset[u + 1]; ++e) {
+        if (!sharp[e]) continue;
         const uint32_t w = edges.neighbor[e];
-        if (w <= u || edges.faces[e] != 2 || faces_of[e][1] == UINT32_MAX) continue;
-        const Vector3d n0 = face_normal(faces_of[e][0]), n1 = face_normal(faces_of[e][1]);
-        if (n0.dot(n1) < kCreaseCos) {
-          const double len = (eig(load3d(surface.positions.data(), u)) - eig(load3d(surface.positions.data(), w))).norm();
-          if (label[u] != UINT32_MAX) sharp_length[label[u]] += len;
-          if (label[w] != UINT32_MAX && label[w] != label[u]) sharp_length[label[w]] += len;
-        }
+        const double len = (eig(load3d(surface.positions.data(), u)) - eig(load3d(surface.positions.data(), w))).norm();
+        if (label[u] != UINT32_MAX) sharp_length[label[u]] += len;
+        if (label[w] != UINT32_MAX && label[w] != label[u]) sharp_length[label[w]] += len;
       }
   }
   std::vector<char> boundary_cell(count, 0);
