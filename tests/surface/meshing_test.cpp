@@ -322,6 +322,41 @@ void append_uv_sphere(double cx, size_t segments, size_t rings, std::vector<floa
   for (size_t s = 0; s < segments; ++s) faces->insert(faces->end(), {south, ring(rings - 1, s + 1), ring(rings - 1, s)});
 }
 
+// A soup that is already one outward fan per vertex skips the orientation
+// passes (repair_soup's fast path): its faces come back as they were. Two
+// nested shells still go through them: the inner one turns inward.
+TEST(RepairSoupTest, OrientedSoupKeepsItsFacesAndNestedShellsStillTurn) {
+  std::vector<float> points;
+  std::vector<uint32_t> faces;
+  append_uv_sphere(0, 16, 10, &points, &faces);
+  auto canonical = [](const uint32_t* t) {  // the rotation that starts at the smallest index
+    const int k = t[0] < t[1] ? (t[0] < t[2] ? 0 : 2) : (t[1] < t[2] ? 1 : 2);
+    return std::array<uint32_t, 3>{t[k], t[(k + 1) % 3], t[(k + 2) % 3]};
+  };
+  Mesh mesh;
+  std::vector<uint32_t> source;
+  ASSERT_TRUE(repair_triangle_soup(points.data(), points.size() / 3, faces.data(), faces.size() / 3, {}, &mesh,
+                                   &source, nullptr)
+                  .ok());
+  std::set<std::array<uint32_t, 3>> in, out;
+  for (size_t f = 0; f < faces.size() / 3; ++f) in.insert(canonical(&faces[3 * f]));
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    const uint32_t t[3] = {source[mesh.indices[3 * f]], source[mesh.indices[3 * f + 1]], source[mesh.indices[3 * f + 2]]};
+    out.insert(canonical(t));
+  }
+  EXPECT_EQ(in, out);
+  const double outer = analyze(mesh).signed_volume;
+  EXPECT_GT(outer, 3.0);  // a UV sphere of radius 1: a little under 4.19
+
+  const size_t first_inner = points.size();
+  append_uv_sphere(0, 16, 10, &points, &faces);
+  for (size_t i = first_inner; i < points.size(); ++i) points[i] *= 0.5f;  // radius 0.5, inside, also outward
+  ASSERT_TRUE(repair_triangle_soup(points.data(), points.size() / 3, faces.data(), faces.size() / 3, {}, &mesh,
+                                   nullptr, nullptr)
+                  .ok());
+  EXPECT_NEAR(analyze(mesh).signed_volume, outer * (1 - 0.125), 1e-3 * outer);  // the inner shell faces inward
+}
+
 // Regression (heap overflow seen on real models): removing the long "bridge"
 // faces leaves removed halfedges inside the mesh, so the halfedge indices of
 // the parts after them run past number_of_halfedges(). The hole of the last

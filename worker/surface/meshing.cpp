@@ -139,6 +139,88 @@ void orient_open_components(SurfaceMesh& sm) {
   sm.remove_property_map(component);
 }
 
+// True when the soup is already what orient_polygon_soup makes of it: every
+// directed edge used once (so no edge has more than two faces, and two
+// faces on an edge run it in opposite directions) and the faces around each
+// vertex one fan (its link one path or cycle). Then the call, which costs
+// more than the rest of the repair on a dual mesh, would change nothing.
+bool oriented_manifold_soup(const std::vector<Triangle>& soup, size_t n) {
+  std::vector<uint64_t> directed;
+  directed.reserve(3 * soup.size());
+  for (const Triangle& t : soup)
+    for (int c = 0; c < 3; ++c) directed.push_back(uint64_t(t[c]) << 32 | uint64_t(t[(c + 1) % 3]));
+  std::sort(directed.begin(), directed.end());
+  if (std::adjacent_find(directed.begin(), directed.end()) != directed.end()) return false;
+  // The link of v: an edge a -> b per face (v, a, b). Each a starts at most
+  // one and each b ends at most one (the directed edges are unique), so the
+  // link is paths and cycles; one of them means one fan.
+  std::vector<uint32_t> start(n + 1, 0);
+  for (const Triangle& t : soup)
+    for (int c = 0; c < 3; ++c) ++start[t[c] + 1];
+  for (size_t v = 0; v < n; ++v) start[v + 1] += start[v];
+  std::vector<std::array<uint32_t, 2>> link(start[n]);
+  {
+    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+    for (const Triangle& t : soup)
+      for (int c = 0; c < 3; ++c) link[fill[t[c]]++] = {uint32_t(t[(c + 1) % 3]), uint32_t(t[(c + 2) % 3])};
+  }
+  for (size_t v = 0; v < n; ++v) {
+    const uint32_t first = start[v], count = start[v + 1] - start[v];
+    if (count == 0) continue;
+    // Components of the link = link vertices - link edges + cycles; with
+    // paths and cycles only, one component is: one cycle (ends = starts,
+    // every vertex both) or one path (exactly one start that is no end).
+    std::vector<uint32_t> from(count), to(count);
+    for (uint32_t k = 0; k < count; ++k) from[k] = link[first + k][0], to[k] = link[first + k][1];
+    std::sort(from.begin(), from.end());
+    std::sort(to.begin(), to.end());
+    uint32_t heads = 0;  // link vertices that start an edge but end none
+    for (uint32_t a : from) heads += !std::binary_search(to.begin(), to.end(), a);
+    if (heads > 1) return false;
+    // Walk from the head (or any edge on a cycle) and count the edges met.
+    uint32_t at = from[0];
+    if (heads == 1)
+      for (uint32_t a : from)
+        if (!std::binary_search(to.begin(), to.end(), a)) at = a;
+    auto* row = &link[first];
+    std::sort(row, row + count);  // by the edge's start, for the walk's look-ups
+    uint32_t walked = 0;
+    const uint32_t begin = at;
+    while (walked < count) {
+      const auto* next = std::lower_bound(row, row + count, std::array<uint32_t, 2>{at, 0});
+      if (next == row + count || (*next)[0] != at) break;
+      ++walked;
+      at = (*next)[1];
+      if (at == begin) break;
+    }
+    if (walked != count) return false;
+  }
+  return true;
+}
+
+// One connected component whose faces wind outward (positive signed volume
+// about its corners' centroid, as orient_open_components measures it): then
+// neither orientation below would change a face, and neither the
+// self-intersection test nor the ray casts are needed.
+bool one_outward_component(SurfaceMesh& sm) {
+  auto component = sm.add_property_map<FaceIndex, size_t>("f:vpr_one", 0).first;
+  const size_t count = PMP::connected_components(sm, component);
+  sm.remove_property_map(component);
+  if (count != 1) return false;
+  std::vector<FaceIndex> faces(sm.faces().begin(), sm.faces().end());
+  std::array<double, 4> c = {0, 0, 0, 0};
+  for (FaceIndex f : faces)
+    for (VertexIndex v : sm.vertices_around_face(sm.halfedge(f))) {
+      const Point& p = sm.point(v);
+      c[0] += p.x();
+      c[1] += p.y();
+      c[2] += p.z();
+      c[3] += 1;
+    }
+  return signed_volume(sm, faces, Point(c[0] / c[3], c[1] / c[3], c[2] / c[3])) > 0;
+}
+
+
 double median_edge_length(const SurfaceMesh& sm) {
   std::vector<double> lengths;
   lengths.reserve(sm.number_of_edges());
@@ -169,7 +251,7 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
                    const MeshingOptions& options, Mesh* out, std::vector<uint32_t>* source_point, MeshingStats* stats) {
   // Consistent orientation; points are duplicated (appended after the n inputs)
   // wherever the facets meet along a non-manifold edge or vertex.
-  PMP::orient_polygon_soup(soup_points, soup);
+  if (!oriented_manifold_soup(soup, soup_points.size())) PMP::orient_polygon_soup(soup_points, soup);
   size_t split = soup_points.size() - n;
 
   SurfaceMesh sm;
@@ -227,7 +309,9 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
   // can retry forever (the pipeline fuzzer found a 101-triangle soup that
   // held it for minutes). Such meshes, and open ones, get each component
   // outward by its own signed volume instead.
-  if (CGAL::is_closed(sm) && !PMP::does_self_intersect(sm)) {
+  if (one_outward_component(sm)) {
+    // already outward: nothing to turn
+  } else if (CGAL::is_closed(sm) && !PMP::does_self_intersect(sm)) {
     PMP::orient_to_bound_a_volume(sm);  // outward; inner shells of nested components inward
   } else {
     orient_open_components(sm);
