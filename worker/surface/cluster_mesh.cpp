@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <numeric>
 #include <set>
@@ -579,6 +580,47 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       for (int k = 0; k < 3; ++k) points[3 * cell + k] = float(best[k]);
     }
   });
+
+  // Two cells can land on one point of the input (a corner of a face both
+  // touch): a zero-length edge and two degenerate triangles that no later
+  // step moves apart. In cell order, a cell whose point an earlier cell took
+  // moves to the nearest of its own elements that is free (each element lies
+  // in one cell, so one is, unless all are taken).
+  {
+    auto bits = [&](uint32_t cell) {
+      std::array<uint32_t, 3> k;
+      std::memcpy(k.data(), &points[3 * size_t(cell)], sizeof k);
+      return k;
+    };
+    std::set<std::array<uint32_t, 3>> taken;
+    std::vector<uint32_t> clashing;
+    for (uint32_t cell = 0; cell < count; ++cell)
+      if (weight[cell] > 0 && !taken.insert(bits(cell)).second) clashing.push_back(cell);
+    if (!clashing.empty()) {
+      std::map<uint32_t, std::vector<uint32_t>> elements;  // of the clashing cells
+      for (uint32_t cell : clashing) elements[cell];
+      for (uint32_t v = 0; v < nv; ++v)
+        if (label[v] != UINT32_MAX && elements.count(label[v])) elements[label[v]].push_back(v);
+      for (uint32_t cell : clashing) {
+        const Vector3d at(points[3 * cell], points[3 * cell + 1], points[3 * cell + 2]);
+        std::vector<std::pair<double, uint32_t>> near;
+        for (uint32_t v : elements[cell])
+          near.push_back({(eig(load3d(surface.positions.data(), v)) - at).squaredNorm(), v});
+        std::sort(near.begin(), near.end());
+        for (const auto& [d, v] : near) {
+          std::array<uint32_t, 3> k;
+          const float p[3] = {surface.positions[3 * size_t(v)], surface.positions[3 * size_t(v) + 1],
+                              surface.positions[3 * size_t(v) + 2]};
+          std::memcpy(k.data(), p, sizeof k);
+          if (taken.insert(k).second) {
+            std::copy(p, p + 3, &points[3 * size_t(cell)]);
+            ++st.points_separated;
+            break;
+          }
+        }
+      }
+    }
+  }
 
   if (tris.empty()) return invalid_argument("cluster mesh: the cells form no triangle");
   std::vector<uint32_t> flat;

@@ -34,6 +34,7 @@ struct ClusterMeshStats {
   size_t cells_unused = 0;     // clusters no dual triangle uses (dropped)
   size_t holes_closed = 0;     // dual holes closed (not input boundary)
   size_t boundary_loops = 0;   // loops kept open (the input's boundary)
+  size_t points_separated = 0; // cells moved off a point another cell took
   MeshingStats repair;         // repair_triangle_soup's account
   OffsetFitStats offset;       // fit_offsets' account
 };
