@@ -17,8 +17,11 @@ MODELS=${MODELS:-"igea.ply horse.ply bunny.obj kitten.obj"}
 cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release -DVPR_CUDA="${CUDA:-ON}" -DVPR_OSMESA=OFF \
   -DCMAKE_CUDA_ARCHITECTURES=90 >/dev/null
 targets=(vpremesh vpremesh-bench)
+# The list once, then grep it: `ninja ... | grep -q` under pipefail fails
+# whenever grep stops reading early and ninja dies of SIGPIPE.
+known=$(ninja -C "$BUILD" -t targets all 2>/dev/null || true)
 for t in ${EXTRA_TARGETS-vpremesh-server vpremesh-worker image_saliency_gpu_test attention_field_gpu_test geometry_gpu_test pipeline_gpu_test job_device_test}; do
-  if ninja -C "$BUILD" -t targets all 2>/dev/null | grep -q "^$t:"; then targets+=("$t"); fi
+  if grep -q "^$t:" <<<"$known"; then targets+=("$t"); fi
 done
 cmake --build "$BUILD" -j"$(nproc)" --target "${targets[@]}"
 

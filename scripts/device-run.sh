@@ -12,7 +12,8 @@ mode=${1:-all}
 shift || true
 OUT=${OUT:-/tmp/out}
 mkdir -p "$OUT"
-[ -d .bundle ] || tar -xzf .pack/bundle.tar.gz
+# A warm machine keeps the last call's .bundle: unpack again when the pack is newer.
+if [ ! -d .bundle ] || [ .pack/bundle.tar.gz -nt .bundle ]; then rm -rf .bundle && tar -xzf .pack/bundle.tar.gz && touch .bundle; fi
 for f in .gl/*.deb; do dpkg -x "$f" /; done
 ldconfig
 export LD_LIBRARY_PATH=$PWD/.bundle/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
