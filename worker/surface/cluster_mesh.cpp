@@ -581,42 +581,63 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     }
   });
 
-  // Two cells can land on one point of the input (a corner of a face both
-  // touch): a zero-length edge and two degenerate triangles that no later
-  // step moves apart. In cell order, a cell whose point an earlier cell took
-  // moves to the nearest of its own elements that is free (each element lies
-  // in one cell, so one is, unless all are taken).
+  // Two cells can land on one point of the input, or within rounding of it
+  // (a corner of a face both touch): a needle of zero length and two
+  // degenerate triangles that no later step moves apart. In cell order, a
+  // cell within `near` (a thousandth of the mean spacing) of an earlier
+  // cell's point moves to the nearest of its own elements that is clear of
+  // every point kept so far (each element lies in one cell; elements are a
+  // third of a spacing apart, so one is, unless all are taken).
   {
-    auto bits = [&](uint32_t cell) {
-      std::array<uint32_t, 3> k;
-      std::memcpy(k.data(), &points[3 * size_t(cell)], sizeof k);
-      return k;
+    double area = 0;
+    for (uint32_t cell = 0; cell < count; ++cell) area += weight[cell];
+    const double near = 1e-3 * std::sqrt(area / std::max<uint32_t>(count, 1));
+    std::unordered_map<uint64_t, std::vector<Vector3d>> grid;  // kept points by grid cell of side `near`
+    auto key = [&](const Vector3d& p, int dx, int dy, int dz) {
+      const int64_t i = int64_t(std::floor(p.x() / near)) + dx, j = int64_t(std::floor(p.y() / near)) + dy,
+                    k = int64_t(std::floor(p.z() / near)) + dz;
+      return uint64_t(i * 73856093) ^ uint64_t(j * 19349663) ^ uint64_t(k * 83492791);
     };
-    std::set<std::array<uint32_t, 3>> taken;
+    auto clear = [&](const Vector3d& p) {
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
+            const auto it = grid.find(key(p, dx, dy, dz));
+            if (it == grid.end()) continue;
+            for (const Vector3d& q : it->second)
+              if ((q - p).squaredNorm() < near * near) return false;
+          }
+      return true;
+    };
+    auto keep = [&](const Vector3d& p) { grid[key(p, 0, 0, 0)].push_back(p); };
+    auto point = [&](uint32_t cell) {
+      return Vector3d(points[3 * cell], points[3 * cell + 1], points[3 * cell + 2]);
+    };
     std::vector<uint32_t> clashing;
-    for (uint32_t cell = 0; cell < count; ++cell)
-      if (weight[cell] > 0 && !taken.insert(bits(cell)).second) clashing.push_back(cell);
+    if (near > 0 && std::isfinite(near))
+      for (uint32_t cell = 0; cell < count; ++cell) {
+        if (!(weight[cell] > 0)) continue;
+        if (clear(point(cell))) keep(point(cell));
+        else clashing.push_back(cell);
+      }
     if (!clashing.empty()) {
       std::map<uint32_t, std::vector<uint32_t>> elements;  // of the clashing cells
       for (uint32_t cell : clashing) elements[cell];
       for (uint32_t v = 0; v < nv; ++v)
         if (label[v] != UINT32_MAX && elements.count(label[v])) elements[label[v]].push_back(v);
       for (uint32_t cell : clashing) {
-        const Vector3d at(points[3 * cell], points[3 * cell + 1], points[3 * cell + 2]);
-        std::vector<std::pair<double, uint32_t>> near;
+        const Vector3d at = point(cell);
+        std::vector<std::pair<double, uint32_t>> by_distance;
         for (uint32_t v : elements[cell])
-          near.push_back({(eig(load3d(surface.positions.data(), v)) - at).squaredNorm(), v});
-        std::sort(near.begin(), near.end());
-        for (const auto& [d, v] : near) {
-          std::array<uint32_t, 3> k;
-          const float p[3] = {surface.positions[3 * size_t(v)], surface.positions[3 * size_t(v) + 1],
-                              surface.positions[3 * size_t(v) + 2]};
-          std::memcpy(k.data(), p, sizeof k);
-          if (taken.insert(k).second) {
-            std::copy(p, p + 3, &points[3 * size_t(cell)]);
-            ++st.points_separated;
-            break;
-          }
+          by_distance.push_back({(eig(load3d(surface.positions.data(), v)) - at).squaredNorm(), v});
+        std::sort(by_distance.begin(), by_distance.end());
+        for (const auto& [d, v] : by_distance) {
+          const Vector3d q = eig(load3d(surface.positions.data(), v));
+          if (!clear(q)) continue;
+          for (int k = 0; k < 3; ++k) points[3 * size_t(cell) + k] = surface.positions[3 * size_t(v) + k];
+          keep(q);
+          ++st.points_separated;
+          break;
         }
       }
     }
