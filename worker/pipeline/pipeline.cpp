@@ -478,8 +478,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           const size_t limit =
               input.vertex_count() + size_t(64 * options.cvt_elements_per_vertex) * options.target_vertices;
           VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, max_edge, limit));
-          // 16 Jacobi rounds over elements about a third of an output spacing
-          // apart: the density varies over a few output spacings, not less.
+          // Over about two output spacings (elements are a quarter of one apart).
           smooth_over_edges(refined.edges, 16, 2, 1, &refined.value);
           // A soup: most edges have one face even after welding.
           const size_t entries = refined.edges.neighbor.size();  // each edge twice

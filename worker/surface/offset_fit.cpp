@@ -132,7 +132,7 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
 
   // Samples: one per input face, at its centroid, weighted by its area,
   // belonging to the cell of its first labelled corner (the refined faces are
-  // about a tenth of a cell: the one-ring searched below covers the cell's
+  // a sixteenth of a cell: the one-ring searched below covers the cell's
   // neighbourhood either way).
   std::vector<Vector3d> unit_normal(nf);  // the output's triangles' unit normals (zero: degenerate)
   auto match_all = [&](std::vector<Match>* out) {
