@@ -153,7 +153,7 @@ bool oriented_manifold_soup(const std::vector<Triangle>& soup, size_t n) {
   if (std::adjacent_find(directed.begin(), directed.end()) != directed.end()) return false;
   // The link of v: an edge a -> b per face (v, a, b). Each a starts at most
   // one and each b ends at most one (the directed edges are unique), so the
-  // link is paths and cycles; one of them means one fan.
+  // link is paths and cycles; exactly one of them means one fan.
   std::vector<uint32_t> start(n + 1, 0);
   for (const Triangle& t : soup)
     for (int c = 0; c < 3; ++c) ++start[t[c] + 1];
@@ -164,28 +164,24 @@ bool oriented_manifold_soup(const std::vector<Triangle>& soup, size_t n) {
     for (const Triangle& t : soup)
       for (int c = 0; c < 3; ++c) link[fill[t[c]]++] = {uint32_t(t[(c + 1) % 3]), uint32_t(t[(c + 2) % 3])};
   }
+  std::vector<uint32_t> ends;  // one vertex's link edges' ends, sorted (reused)
   for (size_t v = 0; v < n; ++v) {
-    const uint32_t first = start[v], count = start[v + 1] - start[v];
+    auto* row = link.data() + start[v];
+    const uint32_t count = start[v + 1] - start[v];
     if (count == 0) continue;
-    // Components of the link = link vertices - link edges + cycles; with
-    // paths and cycles only, one component is: one cycle (ends = starts,
-    // every vertex both) or one path (exactly one start that is no end).
-    std::vector<uint32_t> from(count), to(count);
-    for (uint32_t k = 0; k < count; ++k) from[k] = link[first + k][0], to[k] = link[first + k][1];
-    std::sort(from.begin(), from.end());
-    std::sort(to.begin(), to.end());
-    uint32_t heads = 0;  // link vertices that start an edge but end none
-    for (uint32_t a : from) heads += !std::binary_search(to.begin(), to.end(), a);
+    std::sort(row, row + count);  // by start, for the walk's look-ups
+    ends.clear();
+    for (uint32_t k = 0; k < count; ++k) ends.push_back(row[k][1]);
+    std::sort(ends.begin(), ends.end());
+    // One path has one head (a start that is no end), one cycle none; more
+    // heads are more pieces. Walk from the head (or any edge of a cycle): one
+    // piece is met whole.
+    uint32_t heads = 0, at = row[0][0];
+    for (uint32_t k = 0; k < count; ++k)
+      if (!std::binary_search(ends.begin(), ends.end(), row[k][0])) ++heads, at = row[k][0];
     if (heads > 1) return false;
-    // Walk from the head (or any edge on a cycle) and count the edges met.
-    uint32_t at = from[0];
-    if (heads == 1)
-      for (uint32_t a : from)
-        if (!std::binary_search(to.begin(), to.end(), a)) at = a;
-    auto* row = &link[first];
-    std::sort(row, row + count);  // by the edge's start, for the walk's look-ups
-    uint32_t walked = 0;
     const uint32_t begin = at;
+    uint32_t walked = 0;
     while (walked < count) {
       const auto* next = std::lower_bound(row, row + count, std::array<uint32_t, 2>{at, 0});
       if (next == row + count || (*next)[0] != at) break;
@@ -219,7 +215,6 @@ bool one_outward_component(SurfaceMesh& sm) {
     }
   return signed_volume(sm, faces, Point(c[0] / c[3], c[1] / c[3], c[2] / c[3])) > 0;
 }
-
 
 double median_edge_length(const SurfaceMesh& sm) {
   std::vector<double> lengths;
