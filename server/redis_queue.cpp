@@ -676,6 +676,7 @@ void RedisQueue::start_heartbeats() {
 }
 
 void RedisQueue::renew_registration() {
+  std::lock_guard<std::mutex> registering(registration_mu_);
   std::vector<std::string> args = {std::to_string(options_.visibility_timeout.count()), kGroup};
   {
     std::lock_guard<std::mutex> lock(held_mu_);

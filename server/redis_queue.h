@@ -114,6 +114,11 @@ class RedisQueue final : public JobQueue {
   std::mutex held_mu_;
   std::map<std::string, Held> held_;
   std::set<std::string> consumers_;  // names this process claimed with
+  // One registration at a time, snapshot and write together: the heartbeat
+  // thread's write of an older snapshot (busy 0) could otherwise land after
+  // a claim's (busy 1) and leave the fleet's busy count wrong until the next
+  // heartbeat.
+  std::mutex registration_mu_;
 
   std::mutex watch_mu_;
   std::condition_variable watch_cv_;
