@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <numeric>
 #include <set>
 #include <vector>
 
@@ -507,6 +508,57 @@ TEST(SurfaceCvtTest, ThinHandleKeepsItsGenus) {
   EXPECT_EQ(int64_t(out.vertex_count()) - int64_t(edges.size()) + int64_t(out.face_count()), 0);  // genus 1
   EXPECT_EQ(stats.defective_cells, 0u);
   EXPECT_NEAR(double(out.vertex_count()), 400.0, 8.0);  // splits made up for by merges: +-2%
+}
+
+// A closed rod along x: an open tube (seg around, rings along) capped by two fans.
+Mesh rod(double r, double length, int seg, int rings) {
+  Mesh m = tube(r, length, seg, rings);
+  for (size_t v = 0; v < m.vertex_count(); ++v) std::swap(m.positions[3 * v], m.positions[3 * v + 2]);
+  const uint32_t first = uint32_t(m.vertex_count()), last = first + 1;
+  m.positions.insert(m.positions.end(), {float(-length / 2), 0, 0, float(length / 2), 0, 0});
+  const uint32_t top = uint32_t(rings * seg);
+  for (int i = 0; i < seg; ++i) {
+    const uint32_t a = uint32_t(i), b = uint32_t((i + 1) % seg);
+    m.indices.insert(m.indices.end(), {first, b, a, last, top + a, top + b});
+  }
+  return m;
+}
+
+size_t components(const Mesh& m) {
+  std::vector<uint32_t> parent(m.vertex_count());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (size_t f = 0; f < m.face_count(); ++f)
+    for (int c = 1; c < 3; ++c) parent[find(m.indices[3 * f + c])] = find(m.indices[3 * f]);
+  std::set<uint32_t> roots;
+  for (size_t f = 0; f < m.face_count(); ++f) roots.insert(find(m.indices[3 * f]));
+  return roots.size();
+}
+
+TEST(SurfaceCvtTest, ThinRodStaysOnePiece) {
+  // A rod 200 times as long as it is wide, at a count that leaves about two
+  // isotropic cells around it: cells grown from the seeds close into bands
+  // around the rod, which meet their neighbours in whole circles and in no
+  // dual triangle. They are split like any cell that is not a disk; before
+  // that, the rod came back as four closed pieces.
+  const Mesh r = rod(0.05, 20.0, 32, 400);
+  ASSERT_EQ(components(r), 1u);
+  CvtStats stats;
+  const Mesh out = remesh(r, 300, DensityMode::kUniform, &stats);
+  const Counts k = count(out);
+  EXPECT_EQ(k.boundary_edges, 0u);
+  EXPECT_EQ(k.non_manifold_edges, 0u);
+  EXPECT_EQ(components(out), 1u);
+  EXPECT_EQ(stats.defective_cells, 0u);
+  EXPECT_NEAR(double(out.vertex_count()), 300.0, 6.0);
+  // It still spans the rod's length.
+  float lo = 0, hi = 0;
+  for (size_t v = 0; v < out.vertex_count(); ++v)
+    lo = std::min(lo, out.positions[3 * v]), hi = std::max(hi, out.positions[3 * v]);
+  EXPECT_GT(hi - lo, 19.5f);
 }
 
 TEST(SurfaceCvtTest, SmallWindowsSideBySideStayOpenAndApart) {

@@ -140,22 +140,61 @@ std::vector<uint32_t> spread_on_loop(const Adjacency& adj, const std::vector<uin
 // Cells whose dual vertex would not be a manifold vertex: the dual
 // triangles are the cell triples of faces with three cells (as in
 // cluster_mesh.cpp); a cell is defective when its link (the edges opposite
-// it in its triangles) is not one path or cycle, or when it shares an edge
-// with a cell that more than two triangles use. Sorted, each once. (Its
+// it in its triangles) is not one path or cycle, when it shares an edge
+// with a cell that more than two triangles use, when its three cells meet
+// at two separate places, or when the cell itself rings something (not a
+// disk, nor two). Sorted, each once. (Its
 // sorts are of plain values in their natural order, so tbb::parallel_sort
 // gives one result on any thread count.)
-std::vector<uint32_t> defective_cells(const Mesh& mesh, const std::vector<uint32_t>& label, uint32_t count) {
-  std::vector<std::array<uint32_t, 3>> tris;
+std::vector<uint32_t> defective_cells(const Mesh& mesh, const Adjacency& adj, const std::vector<uint32_t>& label,
+                                      uint32_t count) {
+  // (cells, face) for each face with three cells: its triple point.
+  std::vector<std::array<uint32_t, 4>> corners;
   for (size_t f = 0; f < mesh.face_count(); ++f) {
     std::array<uint32_t, 3> t = {label[mesh.indices[3 * f]], label[mesh.indices[3 * f + 1]], label[mesh.indices[3 * f + 2]]};
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || t[0] == UINT32_MAX || t[1] == UINT32_MAX || t[2] == UINT32_MAX)
       continue;
     std::sort(t.begin(), t.end());
-    tris.push_back(t);
+    corners.push_back({t[0], t[1], t[2], uint32_t(f)});
   }
-  tbb::parallel_sort(tris.begin(), tris.end());
-  tris.erase(std::unique(tris.begin(), tris.end()), tris.end());
+  tbb::parallel_sort(corners.begin(), corners.end());
   std::vector<char> bad(count, 0);
+  std::vector<std::array<uint32_t, 3>> tris;
+  tris.reserve(corners.size());
+  std::vector<uint32_t> corner_parent;
+  for (size_t i = 0; i < corners.size();) {
+    size_t j = i;
+    while (j < corners.size() && std::equal(corners[j].begin(), corners[j].begin() + 3, corners[i].begin())) ++j;
+    tris.push_back({corners[i][0], corners[i][1], corners[i][2]});
+    // Three cells that meet at two separate places (faces of the triple
+    // joined by no chain of shared corners): two of them share two arcs of
+    // boundary, so together they ring a thin part, and the dual, which keeps
+    // one triangle per triple, would pinch the part there (a rod with two
+    // cells around comes back as several closed pieces).
+    if (j - i > 32) {
+      // A triple point spread over that many faces is no point: split
+      // (and the pairwise test below stays cheap on any input).
+      bad[corners[i][0]] = bad[corners[i][1]] = bad[corners[i][2]] = 1;
+    } else if (j - i > 1) {
+      corner_parent.resize(j - i);
+      std::iota(corner_parent.begin(), corner_parent.end(), 0u);
+      auto find = [&](uint32_t a) {
+        while (corner_parent[a] != a) a = corner_parent[a] = corner_parent[corner_parent[a]];
+        return a;
+      };
+      size_t groups = j - i;
+      for (size_t a = i; a < j; ++a)
+        for (size_t b = a + 1; b < j; ++b) {
+          const uint32_t* fa = &mesh.indices[3 * size_t(corners[a][3])];
+          const uint32_t* fb = &mesh.indices[3 * size_t(corners[b][3])];
+          const bool touch = std::any_of(fa, fa + 3, [&](uint32_t v) { return v == fb[0] || v == fb[1] || v == fb[2]; });
+          const uint32_t ra = find(uint32_t(a - i)), rb = find(uint32_t(b - i));
+          if (touch && ra != rb) corner_parent[ra] = rb, --groups;
+        }
+      if (groups > 1) bad[corners[i][0]] = bad[corners[i][1]] = bad[corners[i][2]] = 1;
+    }
+    i = j;
+  }
   // Edges of more than two triangles.
   std::vector<uint64_t> edges;
   edges.reserve(3 * tris.size());
@@ -215,6 +254,25 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const std::vector<uint32
     if (!ok) bad[cell] = 1;
     i = j;
   }
+  // A cell that rings something (Euler characteristic V - E + F of its own
+  // elements, edges and faces below 1: an annulus or worse): the sweeps keep
+  // a cell's topology, but the cells grown from the seeds can close into a
+  // band around a thin part, which meets its neighbours in whole circles and
+  // so in no dual triangle: the dual would cut the part there.
+  std::vector<int64_t> euler(count, 0);
+  for (size_t v = 0; v < label.size(); ++v)
+    if (label[v] != UINT32_MAX) ++euler[label[v]];
+  for (uint32_t u = 0; u < uint32_t(label.size()); ++u)
+    if (label[u] != UINT32_MAX)
+      for (const uint32_t* w = adj.begin(u); w != adj.end(u); ++w)
+        if (*w > u && label[*w] == label[u]) --euler[label[u]];
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    const uint32_t* t = &mesh.indices[3 * f];
+    const uint32_t c = label[t[0]];
+    if (c != UINT32_MAX && label[t[1]] == c && label[t[2]] == c) ++euler[c];
+  }
+  for (uint32_t c = 0; c < count; ++c)
+    if (euler[c] < 1) bad[c] = 1;
   std::vector<uint32_t> out;
   for (uint32_t c = 0; c < count; ++c)
     if (bad[c]) out.push_back(c);
@@ -857,7 +915,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     merged += taken;
   };
   for (int round = 0; round < options.topology_rounds; ++round) {
-    std::vector<uint32_t> bad = defective_cells(mesh, label, clusters_now);
+    std::vector<uint32_t> bad = defective_cells(mesh, adj, label, clusters_now);
     for (uint32_t c = 0; c < clusters_now; ++c)  // a cell on two loops would join them
       if (loops_of_cluster[c] > 1) bad.push_back(c);
     std::sort(bad.begin(), bad.end());
@@ -943,7 +1001,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     stats->clusters = clusters_now;
     stats->cells_split = splits;
     stats->cells_merged = merged;
-    stats->defective_cells = defective_cells(mesh, label, clusters_now).size();
+    stats->defective_cells = defective_cells(mesh, adj, label, clusters_now).size();
   }
   *label_out = std::move(label);
   return Status::Ok();
