@@ -75,7 +75,7 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     double log_next = std::log(a.count) + (goal - error_of(a.ssim)) / rate + 0.5 * o.tolerance;
     // One-sided: at least a factor 2 and at most 16 past the known end;
     // two-sided: the bracket's middle when the model points outside it or
-    // has not halved it in two tries.
+    // did not halve it with the last try.
     if (failed == 0) log_next = std::clamp(log_next, hi - std::log(16.0), hi - std::log(2.0));
     if (passed == 0) log_next = std::clamp(log_next, lo + std::log(2.0), lo + std::log(16.0));
     // Close from above: the largest count that would end the search if it fails.
@@ -90,7 +90,7 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     const double opening = lo + std::log1p(o.tolerance) - 1e-9;
     const bool close_from_below = passed > 0 && failed > 0 && out.tries.back().ssim < o.min_ssim &&
                                   log_next > lo && log_next <= opening;
-    if (passed > 0 && failed > 0 && (stalled >= 2 || log_next <= lo)) {
+    if (passed > 0 && failed > 0 && (stalled >= 1 || log_next <= lo)) {
       log_next = 0.5 * (lo + hi);
       stalled = 0;
     }

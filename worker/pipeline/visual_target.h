@@ -7,7 +7,8 @@
 // log(1 - SSIM)), fitted to the two tries nearest the bound and aimed 1% past
 // it; once a count passes, the next try is the largest that would close the
 // bracket within the tolerance (2%) if it fails. Tries stay strictly inside
-// the bracket; when the bracket has not halved in two tries, it bisects.
+// the bracket; when a try did not halve the bracket, the next one bisects it
+// (near the bound the score is noisy, and a model fitted to noise creeps).
 #pragma once
 
 #include <cstdint>
