@@ -561,6 +561,31 @@ TEST(SurfaceCvtTest, ThinRodStaysOnePiece) {
   EXPECT_GT(hi - lo, 19.5f);
 }
 
+TEST(SurfaceCvtTest, ThinPartsAtAFewVerticesKeepBothSides) {
+  // Far fewer vertices than the thin parts' widths ask for: a plate 0.4%
+  // thick at 100 vertices (cells 35 times as wide as the plate is thick)
+  // and the rod above at 100 (a cell's width is the rod's circumference).
+  // Cells grown over the rim face both ways, and the dual cannot keep the
+  // two sides apart; cells that take only elements facing their own way do.
+  // Before, the plate came back in two closed pieces, the rod in twelve.
+  struct Case {
+    const char* name;
+    Mesh mesh;
+  };
+  const Case cases[] = {{"plate", box(1, 1, 0.004, 40)}, {"rod", rod(0.05, 20.0, 32, 400)}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    CvtStats stats;
+    const Mesh out = remesh(c.mesh, 100, DensityMode::kUniform, &stats);
+    const Counts k = count(out);
+    EXPECT_EQ(k.boundary_edges, 0u);
+    EXPECT_EQ(k.non_manifold_edges, 0u);
+    EXPECT_EQ(components(out), 1u);
+    EXPECT_NEAR(double(out.vertex_count()), 100.0, 2.0);
+    EXPECT_GT(volume(out), 0.5 * volume(c.mesh));  // both sides kept apart
+  }
+}
+
 TEST(SurfaceCvtTest, SmallWindowsSideBySideStayOpenAndApart) {
   // Two windows of one grid cell each, one cell apart, on the +x side of a
   // box remeshed coarsely: each keeps its own loop (a cell on both would

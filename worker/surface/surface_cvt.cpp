@@ -21,6 +21,14 @@
 namespace vpr {
 namespace {
 
+// A cell holds no element whose normal is more than 100 degrees from the
+// way the cell faces (its seed's normal while the cells grow, the mean of
+// its elements' normals in the sweeps): a cell that faces both ways wraps a
+// thin part or the rim of a thin plate, and its dual vertex cannot stand for
+// both sides. 100 rather than 90 degrees, so that a cell may still cover a
+// right-angled crease or a cube's corner.
+constexpr double kFacing = -0.17364817766693033;  // cos 100 degrees
+
 // Vertex adjacency in compressed rows, neighbours sorted; faces[i]: how
 // many faces the edge to neighbor[i] has (1: a boundary edge).
 using Adjacency = MeshEdges;
@@ -29,6 +37,7 @@ struct Cluster {
   double m = 0;
   Vec3d s{0, 0, 0};  // sum m x
   Vec3d t{0, 0, 0};  // sum m a n: the normal half of the six-dimensional position (anisotropy)
+  Vec3d n{0, 0, 0};  // sum m n, unit normals: which way the cell faces
   size_t size = 0;
   // -|(s, t)|^2 / m: the cluster's energy less sum m |(x, a n)|^2, which no move changes.
   double energy() const { return m > 0 ? -(dot(s, s) + dot(t, t)) / m : 0.0; }
@@ -573,12 +582,35 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       out->clear();
       for (auto& l : local) out->insert(out->end(), l.begin(), l.end()), l.clear();
     };
-    for (uint32_t round = 1; !front.empty(); ++round) {
+    // Two passes: first each cell takes only elements facing within 100
+    // degrees of its seed (kFacing), so that no cell starts round a thin part
+    // or over the rim of a thin plate; then, from where that stopped, the
+    // elements no cell could take (a part with a seed on one side only) go to
+    // the nearest cell whatever way they face.
+    std::vector<char> settled;
+    uint32_t round = 1;
+    for (int pass = 0; pass < 2; ++pass) {
+    const bool facing = pass == 0;
+    if (!facing) {
+      settled.assign(nv, 0);
+      front.clear();
+      for (uint32_t v = 0; v < nv; ++v) {
+        settled[v] = label[v] != UINT32_MAX;
+        if (settled[v])
+          for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
+            if (label[*w] == UINT32_MAX) {
+              front.push_back(v);
+              break;
+            }
+      }
+    }
+    for (; !front.empty(); ++round) {
       tbb::parallel_for(tbb::blocked_range<size_t>(0, front.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
         auto& out = local.local();
         for (size_t i = r.begin(); i != r.end(); ++i)
           for (const uint32_t* w = adj.begin(front[i]); w != adj.end(front[i]); ++w)
-            if (listed[*w].exchange(round, std::memory_order_relaxed) != round) out.push_back(*w);
+            if ((facing || !settled[*w]) && listed[*w].exchange(round, std::memory_order_relaxed) != round)
+              out.push_back(*w);
       });
       gather(&candidates);
       better.resize(candidates.size());
@@ -587,6 +619,9 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
           const uint32_t v = candidates[i];
           better[i] = {dist[v], UINT32_MAX};
           for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
+            if (facing && label[*w] != UINT32_MAX &&
+                dot(vertex_normal[v], vertex_normal[seeds[label[*w]]]) < kFacing)
+              continue;
             const double nd = dist[*w] + norm(x[*w] - x[v]);
             if (nd < better[i].first) better[i] = {nd, label[*w]};
           }
@@ -603,6 +638,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       });
       gather(&front);
     }
+    }
   }
 
   uint32_t clusters_now = count;
@@ -614,6 +650,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     c.m += mass[v];
     c.s = c.s + x[v] * mass[v];
     c.t = c.t + y[v] * mass[v];
+    c.n = c.n + vertex_normal[v] * mass[v];
     ++c.size;
     constant += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
   }
@@ -659,8 +696,13 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     const double after = -(dot(sa, sa) + dot(ta, ta)) / (a.m - m) - (dot(sb, sb) + dot(tb, tb)) / (b.m + m);
     return a.energy() + b.energy() - after;  // > 0: E falls
   };
+  // v may join `to` only facing the way `to` faces (see kFacing).
+  auto faces_with = [&](uint32_t v, uint32_t to) {
+    return dot(vertex_normal[v], clusters[to].n) >= kFacing * norm(clusters[to].n);
+  };
   auto allowed = [&](uint32_t v, uint32_t from, uint32_t to) {
-    return neighbour_groups(adj, label, v, from) == 1 && neighbour_groups(adj, label, v, to) == 1 && loop_keeps(v, from, to);
+    return faces_with(v, to) && neighbour_groups(adj, label, v, from) == 1 && neighbour_groups(adj, label, v, to) == 1 &&
+           loop_keeps(v, from, to);
   };
   auto move = [&](uint32_t v, uint32_t to) {
     Cluster& a = clusters[label[v]];
@@ -668,10 +710,12 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     a.m -= mass[v];
     a.s = a.s - x[v] * mass[v];
     a.t = a.t - y[v] * mass[v];
+    a.n = a.n - vertex_normal[v] * mass[v];
     --a.size;
     b.m += mass[v];
     b.s = b.s + x[v] * mass[v];
     b.t = b.t + y[v] * mass[v];
+    b.n = b.n + vertex_normal[v] * mass[v];
     ++b.size;
     loop_remove(v, label[v]);
     loop_add(v, to);
@@ -823,6 +867,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       c.m += mass[v];
       c.s = c.s + x[v] * mass[v];
       c.t = c.t + y[v] * mass[v];
+      c.n = c.n + vertex_normal[v] * mass[v];
       ++c.size;
       constant += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
       loop_add(v, label[v]);
