@@ -70,12 +70,19 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     // surface's error), so that the next try falls short rather than past
     // the answer, where tries cost more.
     const double rate = b && slope < -1e-3 ? slope : -1.0;
+    // The model holds while the tries agree with it: a larger count never
+    // scored lower. Once two tries disagree, the scores near the bound are
+    // noise and a line through any two of them creeps; bisect instead.
+    bool model_holds = true;
+    for (const VisualTry& p : out.tries)
+      for (const VisualTry& q : out.tries)
+        if (p.count < q.count && p.ssim > q.ssim) model_holds = false;
     // Aim a little past the predicted count, so that the try near the answer
     // passes and one more just inside the tolerance below it can close.
     double log_next = std::log(a.count) + (goal - error_of(a.ssim)) / rate + 0.5 * o.tolerance;
     // One-sided: at least a factor 2 and at most 16 past the known end;
-    // two-sided: the bracket's middle when the model points outside it or
-    // did not halve it with the last try.
+    // two-sided: the bracket's middle when the model points outside it, has
+    // not halved it in two tries, or does not hold.
     if (failed == 0) log_next = std::clamp(log_next, hi - std::log(16.0), hi - std::log(2.0));
     if (passed == 0) log_next = std::clamp(log_next, lo + std::log(2.0), lo + std::log(16.0));
     // Close from above: the largest count that would end the search if it fails.
@@ -90,7 +97,7 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     const double opening = lo + std::log1p(o.tolerance) - 1e-9;
     const bool close_from_below = passed > 0 && failed > 0 && out.tries.back().ssim < o.min_ssim &&
                                   log_next > lo && log_next <= opening;
-    if (passed > 0 && failed > 0 && (stalled >= 1 || log_next <= lo)) {
+    if (passed > 0 && failed > 0 && (stalled >= 2 || log_next <= lo || !model_holds)) {
       log_next = 0.5 * (lo + hi);
       stalled = 0;
     }

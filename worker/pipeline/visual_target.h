@@ -7,8 +7,9 @@
 // log(1 - SSIM)), fitted to the two tries nearest the bound and aimed 1% past
 // it; once a count passes, the next try is the largest that would close the
 // bracket within the tolerance (2%) if it fails. Tries stay strictly inside
-// the bracket; when a try did not halve the bracket, the next one bisects it
-// (near the bound the score is noisy, and a model fitted to noise creeps).
+// the bracket; it bisects when the bracket has not halved in two tries or once
+// a larger count has scored lower than a smaller one (near the bound the
+// score is noisy, and a model fitted to noise creeps).
 #pragma once
 
 #include <cstdint>
