@@ -264,10 +264,15 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const Adjacency& adj, co
     i = j;
   }
   // A cell that rings something (Euler characteristic V - E + F of its own
-  // elements, edges and faces below 1: an annulus or worse): the sweeps keep
-  // a cell's topology, but the cells grown from the seeds can close into a
-  // band around a thin part, which meets its neighbours in whole circles and
-  // so in no dual triangle: the dual would cut the part there.
+  // elements, edges and faces below 1: an annulus or worse) and is in no
+  // dual triangle: the sweeps keep a cell's topology, but the cells grown
+  // from the seeds can close into a band around a thin part, which meets its
+  // neighbours in whole circles and so in no dual triangle: the dual would
+  // cut the part there. (A ring that is in dual triangles either has a link
+  // of two pieces, caught above, or encloses a cell that is in none, which
+  // the dual drops and which costs nothing but that vertex: a rod's cap.)
+  std::vector<char> in_triangle(count, 0);
+  for (const auto& t : tris) in_triangle[t[0]] = in_triangle[t[1]] = in_triangle[t[2]] = 1;
   std::vector<int64_t> euler(count, 0);
   for (size_t v = 0; v < label.size(); ++v)
     if (label[v] != UINT32_MAX) ++euler[label[v]];
@@ -281,7 +286,7 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const Adjacency& adj, co
     if (c != UINT32_MAX && label[t[1]] == c && label[t[2]] == c) ++euler[c];
   }
   for (uint32_t c = 0; c < count; ++c)
-    if (euler[c] < 1) bad[c] = 1;
+    if (euler[c] < 1 && !in_triangle[c]) bad[c] = 1;
   std::vector<uint32_t> out;
   for (uint32_t c = 0; c < count; ++c)
     if (bad[c]) out.push_back(c);
