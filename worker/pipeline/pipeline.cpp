@@ -18,6 +18,7 @@
 #include "eval/visual_similarity.h"
 #include "job_device.h"
 #include "surface/surface_refine.h"
+#include "part_fallback.h"
 #include "visual_target.h"
 #ifdef VPR_HAVE_CUDA
 #include "saliency/gpu_saliency.h"
@@ -531,6 +532,9 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             const uint32_t cells = result.cvt.clusters;
             VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, refined.edges, label, cells, &result.mesh, &cell,
                                               &result.cluster_mesh, options.cluster_mesh));
+            PartFallbackStats fallback;
+            VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, label, options.target_vertices, &result.mesh,
+                                                     &cell, &fallback));
             // Each output vertex: its cell's mean importance (area-weighted).
             std::vector<double> sum(cells, 0.0), weight(cells, 0.0);
             const std::vector<double> area = vertex_areas(refined.mesh);
@@ -545,6 +549,11 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             result.meshing = result.cluster_mesh.repair;
             note = "dual of the CVT cells; " + std::to_string(result.cluster_mesh.holes_closed) +
                    " dual holes closed, " + std::to_string(result.cluster_mesh.boundary_loops) + " boundary loops kept";
+            if (fallback.parts_replaced > 0)
+              note += "; " + std::to_string(fallback.parts_replaced) + " of " + std::to_string(fallback.closed_parts) +
+                      " closed parts decimated instead (their dual was open or in pieces)";
+            if (fallback.parts_left > 0)
+              note += "; " + std::to_string(fallback.parts_left) + " closed parts came out broken";
             const OffsetFitStats& fit = result.cluster_mesh.offset;
             if (fit.free_vertices > 0) {
               char text[200];

@@ -1,0 +1,115 @@
+// The part fallback: a closed part whose dual came out broken is replaced by
+// a decimation that is closed, one piece and of the input's genus; a part
+// whose dual is whole is left bit for bit.
+#include "pipeline/part_fallback.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <utility>
+#include <vector>
+
+#include "surface/cluster_mesh.h"
+#include "surface/mesh_edges.h"
+#include "surface/surface_cvt.h"
+
+namespace vpr {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+Mesh torus(double R, double r, int seg, int rings) {
+  Mesh m;
+  for (int j = 0; j < rings; ++j)
+    for (int i = 0; i < seg; ++i) {
+      const double u = 2 * kPi * j / rings, v = 2 * kPi * i / seg;
+      m.positions.insert(m.positions.end(), {float((R + r * std::cos(v)) * std::cos(u)),
+                                             float((R + r * std::cos(v)) * std::sin(u)), float(r * std::sin(v))});
+    }
+  for (int j = 0; j < rings; ++j)
+    for (int i = 0; i < seg; ++i) {
+      const uint32_t a = j * seg + i, b = j * seg + (i + 1) % seg, c = ((j + 1) % rings) * seg + i,
+                     d = ((j + 1) % rings) * seg + (i + 1) % seg;
+      m.indices.insert(m.indices.end(), {a, c, d, a, d, b});
+    }
+  return m;
+}
+
+// Edges in exactly two faces, and V - E + F.
+std::pair<bool, long> closed_and_euler(const Mesh& m) {
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (size_t f = 0; f < m.face_count(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = m.indices[3 * f + k], b = m.indices[3 * f + (k + 1) % 3];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  bool closed = !uses.empty();
+  for (const auto& [e, n] : uses) closed = closed && n == 2;
+  return {closed, long(m.vertex_count()) - long(uses.size()) + long(m.face_count())};
+}
+
+struct Dual {
+  Mesh surface;
+  MeshEdges edges;
+  std::vector<uint32_t> label;
+  uint32_t cells = 0;
+  Mesh out;
+  std::vector<uint32_t> cell;
+};
+
+Dual dual_of_torus(uint32_t count) {
+  Dual d;
+  d.surface = torus(1.0, 0.3, 48, 96);
+  d.edges = mesh_edges(d.surface);
+  CvtStats stats;
+  EXPECT_TRUE(surface_cvt(d.surface, d.edges, vertex_areas(d.surface), count, {}, &d.label, &stats).ok());
+  d.cells = stats.clusters;
+  ClusterMeshStats mesh_stats;
+  EXPECT_TRUE(mesh_clusters(d.surface, d.edges, d.label, d.cells, &d.out, &d.cell, &mesh_stats).ok());
+  return d;
+}
+
+TEST(PartFallback, AWholeDualIsLeftAsItIs) {
+  Dual d = dual_of_torus(300);
+  ASSERT_EQ(closed_and_euler(d.out), std::make_pair(true, 0L));
+  const Mesh before = d.out;
+  PartFallbackStats stats;
+  ASSERT_TRUE(replace_broken_parts(d.surface, d.edges, d.label, 300, &d.out, &d.cell, &stats).ok());
+  EXPECT_EQ(stats.closed_parts, 1u);
+  EXPECT_EQ(stats.parts_replaced, 0u);
+  EXPECT_EQ(d.out.positions, before.positions);
+  EXPECT_EQ(d.out.indices, before.indices);
+}
+
+TEST(PartFallback, ABrokenDualIsReplacedByAClosedTorusOfTheSameCount) {
+  Dual d = dual_of_torus(300);
+  // A hole in the dual: two faces gone.
+  d.out.indices.erase(d.out.indices.begin(), d.out.indices.begin() + 6);
+  ASSERT_FALSE(closed_and_euler(d.out).first);
+  PartFallbackStats stats;
+  ASSERT_TRUE(replace_broken_parts(d.surface, d.edges, d.label, 300, &d.out, &d.cell, &stats).ok());
+  EXPECT_EQ(stats.parts_replaced, 1u);
+  EXPECT_EQ(stats.parts_left, 0u);
+  EXPECT_EQ(closed_and_euler(d.out), std::make_pair(true, 0L));  // closed, genus 1
+  EXPECT_NEAR(double(d.out.vertex_count()), 300.0, 6.0);
+  ASSERT_EQ(d.cell.size(), d.out.vertex_count());
+  for (uint32_t c : d.cell) EXPECT_LT(c, d.cells);
+  // On the torus: every vertex within 2% of the tube's radius of its surface.
+  for (size_t v = 0; v < d.out.vertex_count(); ++v) {
+    const double x = d.out.positions[3 * v], y = d.out.positions[3 * v + 1], z = d.out.positions[3 * v + 2];
+    const double ring = std::hypot(x, y) - 1.0;
+    EXPECT_NEAR(std::hypot(ring, z), 0.3, 0.3 * 0.1);
+  }
+}
+
+TEST(PartFallback, RefusesMismatchedInputs) {
+  Dual d = dual_of_torus(100);
+  d.cell.pop_back();
+  PartFallbackStats stats;
+  EXPECT_EQ(replace_broken_parts(d.surface, d.edges, d.label, 100, &d.out, &d.cell, &stats).code(),
+            StatusCode::kInternal);
+}
+
+}  // namespace
+}  // namespace vpr

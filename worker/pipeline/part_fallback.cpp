@@ -1,0 +1,215 @@
+#include "pipeline/part_fallback.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <utility>
+
+#include "core/mesh_parts.h"
+#include "core/vec3.h"
+#include "peers/peers.h"
+#include "surface/closest_point.h"
+
+namespace vpr {
+namespace {
+
+// Topology of a set of triangles: closed (every edge in two faces, once each
+// way), one piece, every vertex one fan, and its Euler characteristic.
+struct Shape {
+  bool closed_manifold = false;
+  bool one_piece = false;
+  int64_t euler = 0;
+};
+
+Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces) {
+  Shape s;
+  if (faces.empty()) return s;
+  std::vector<uint32_t> verts;
+  for (const auto& f : faces) verts.insert(verts.end(), f.begin(), f.end());
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  auto local = [&](uint32_t v) { return uint32_t(std::lower_bound(verts.begin(), verts.end(), v) - verts.begin()); };
+  // Directed edges: each once, and its reverse once.
+  std::vector<uint64_t> directed;
+  for (const auto& f : faces)
+    for (int k = 0; k < 3; ++k) directed.push_back(uint64_t(local(f[k])) << 32 | local(f[(k + 1) % 3]));
+  std::sort(directed.begin(), directed.end());
+  bool manifold = std::adjacent_find(directed.begin(), directed.end()) == directed.end();
+  for (uint64_t e : directed)
+    manifold = manifold && std::binary_search(directed.begin(), directed.end(), (e << 32) | (e >> 32));
+  // One fan per vertex: the edges opposite it in its faces join into one cycle.
+  std::vector<std::array<uint32_t, 3>> link;  // (vertex, next, previous)
+  for (const auto& f : faces)
+    for (int k = 0; k < 3; ++k) link.push_back({local(f[k]), local(f[(k + 1) % 3]), local(f[(k + 2) % 3])});
+  std::sort(link.begin(), link.end());
+  std::vector<uint32_t> parent(verts.size());
+  auto find = [&](uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (size_t i = 0; i < link.size() && manifold;) {
+    size_t j = i;
+    while (j < link.size() && link[j][0] == link[i][0]) ++j;
+    for (size_t k = i; k < j; ++k) parent[link[k][1]] = link[k][1], parent[link[k][2]] = link[k][2];
+    for (size_t k = i; k < j; ++k) {
+      const uint32_t a = find(link[k][1]), b = find(link[k][2]);
+      if (a != b) parent[a] = b;
+    }
+    std::vector<uint32_t> roots;
+    for (size_t k = i; k < j; ++k) roots.push_back(find(link[k][1]));
+    std::sort(roots.begin(), roots.end());
+    manifold = std::unique(roots.begin(), roots.end()) - roots.begin() == 1;
+    i = j;
+  }
+  // Pieces, joined by shared vertices.
+  std::iota(parent.begin(), parent.end(), 0u);
+  for (const auto& f : faces)
+    for (int k = 1; k < 3; ++k) {
+      const uint32_t a = find(local(f[0])), b = find(local(f[k]));
+      if (a != b) parent[a] = b;
+    }
+  size_t pieces = 0;
+  for (uint32_t v = 0; v < verts.size(); ++v) pieces += find(v) == v;
+  s.closed_manifold = manifold;
+  s.one_piece = pieces == 1;
+  s.euler = int64_t(verts.size()) - int64_t(directed.size() / 2) + int64_t(faces.size());
+  return s;
+}
+
+}  // namespace
+
+Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const std::vector<uint32_t>& label,
+                            uint32_t target, Mesh* out, std::vector<uint32_t>* cell_of_vertex,
+                            PartFallbackStats* stats) {
+  *stats = {};
+  const size_t nv = surface.vertex_count();
+  if (label.size() != nv || edges.vertex_count() != nv || cell_of_vertex->size() != out->vertex_count())
+    return internal_error("part fallback: the surface, its cells and the output disagree");
+  size_t parts = 0;
+  const std::vector<uint32_t> face_part = face_parts(surface, &parts);
+  std::vector<uint32_t> vertex_part(nv, UINT32_MAX);
+  std::vector<std::vector<std::array<uint32_t, 3>>> part_faces(parts);
+  for (size_t f = 0; f < surface.face_count(); ++f) {
+    if (face_part[f] == UINT32_MAX) continue;
+    const uint32_t* t = &surface.indices[3 * f];
+    part_faces[face_part[f]].push_back({t[0], t[1], t[2]});
+    for (int k = 0; k < 3; ++k) vertex_part[t[k]] = face_part[f];
+  }
+  // Closed input parts: every edge in two faces.
+  std::vector<char> closed(parts, 1);
+  for (uint32_t u = 0; u < nv; ++u)
+    for (uint32_t i = edges.offset[u]; i < edges.offset[u + 1]; ++i)
+      if (edges.faces[i] != 2 && vertex_part[u] != UINT32_MAX) closed[vertex_part[u]] = 0;
+  uint32_t cells = 0;
+  for (uint32_t l : label)
+    if (l != UINT32_MAX) cells = std::max(cells, l + 1);
+  std::vector<uint32_t> cell_part(cells, UINT32_MAX);
+  std::vector<uint32_t> part_cells(parts, 0);
+  for (size_t v = 0; v < nv; ++v)
+    if (label[v] != UINT32_MAX && vertex_part[v] != UINT32_MAX && cell_part[label[v]] == UINT32_MAX) {
+      cell_part[label[v]] = vertex_part[v];
+      ++part_cells[vertex_part[v]];
+    }
+  // The output's faces by the part their cells lie in.
+  std::vector<std::vector<std::array<uint32_t, 3>>> out_faces(parts);
+  for (size_t f = 0; f < out->face_count(); ++f) {
+    const uint32_t c = (*cell_of_vertex)[out->indices[3 * f]];
+    const uint32_t p = c < cells ? cell_part[c] : UINT32_MAX;
+    if (p != UINT32_MAX) out_faces[p].push_back({out->indices[3 * f], out->indices[3 * f + 1], out->indices[3 * f + 2]});
+  }
+
+  struct Replacement {
+    uint32_t part;
+    Mesh mesh;
+    std::vector<uint32_t> cell;
+  };
+  std::vector<Replacement> replacements;
+  for (uint32_t p = 0; p < parts; ++p) {
+    if (!closed[p]) continue;
+    ++stats->closed_parts;
+    const Shape in = shape_of(part_faces[p]);
+    // Parts that touch others at a vertex (a leg standing on a table top,
+    // welded at one corner) are one part here and no 2-manifold can keep
+    // them as they are: left as the dual made them.
+    if (!in.closed_manifold || !in.one_piece) continue;
+    const Shape now = shape_of(out_faces[p]);
+    if (now.closed_manifold && now.one_piece && now.euler == in.euler) continue;
+    // The part alone, compact, in the surface's frame.
+    Mesh sub;
+    sub.origin = surface.origin;
+    sub.scale = surface.scale;
+    std::vector<uint32_t> local(nv, UINT32_MAX), global;
+    for (const auto& f : part_faces[p])
+      for (uint32_t v : f)
+        if (local[v] == UINT32_MAX) {
+          local[v] = uint32_t(global.size());
+          global.push_back(v);
+          sub.positions.insert(sub.positions.end(), surface.positions.begin() + 3 * v, surface.positions.begin() + 3 * v + 3);
+        }
+    for (const auto& f : part_faces[p]) sub.indices.insert(sub.indices.end(), {local[f[0]], local[f[1]], local[f[2]]});
+    // The part's share of the target (the cells may be more than the target
+    // where the topology step could not merge enough of them away).
+    const uint32_t share = uint32_t(std::lround(double(part_cells[p]) * std::min(1.0, double(target) / std::max(cells, 1u))));
+    auto decimated = peers::openmesh_quadric(sub, std::max<uint32_t>(share, 4));
+    std::vector<std::array<uint32_t, 3>> faces;
+    if (decimated.ok())
+      for (size_t f = 0; f < decimated->mesh.face_count(); ++f)
+        faces.push_back({decimated->mesh.indices[3 * f], decimated->mesh.indices[3 * f + 1], decimated->mesh.indices[3 * f + 2]});
+    const Shape fixed = shape_of(faces);
+    if (!(fixed.closed_manifold && fixed.one_piece && fixed.euler == in.euler)) {
+      ++stats->parts_left;
+      continue;
+    }
+    // Each new vertex takes the cell of the nearest surface element.
+    Replacement r{p, std::move(decimated->mesh), {}};
+    const ClosestPointTree tree(sub);
+    r.cell.resize(r.mesh.vertex_count(), 0);
+    for (size_t v = 0; v < r.mesh.vertex_count(); ++v) {
+      if (tree.empty()) break;
+      const auto hit = tree.closest(load3d(r.mesh.positions.data(), v));
+      const int corner = int(std::max_element(hit.barycentric.begin(), hit.barycentric.end()) - hit.barycentric.begin());
+      r.cell[v] = label[global[sub.indices[3 * size_t(hit.face) + size_t(corner)]]];
+    }
+    replacements.push_back(std::move(r));
+  }
+  if (replacements.empty()) return Status::Ok();
+
+  // Splice: the output without the replaced parts' faces and vertices, then
+  // the decimated parts.
+  std::vector<char> replaced(parts, 0);
+  for (const Replacement& r : replacements) replaced[r.part] = 1;
+  std::vector<char> keep_face(out->face_count(), 1), keep_vertex(out->vertex_count(), 0);
+  for (size_t f = 0; f < out->face_count(); ++f) {
+    const uint32_t c = (*cell_of_vertex)[out->indices[3 * f]];
+    const uint32_t p = c < cells ? cell_part[c] : UINT32_MAX;
+    keep_face[f] = p == UINT32_MAX || !replaced[p];
+    if (keep_face[f])
+      for (int k = 0; k < 3; ++k) keep_vertex[out->indices[3 * f + k]] = 1;
+  }
+  Mesh spliced;
+  spliced.origin = out->origin;
+  spliced.scale = out->scale;
+  std::vector<uint32_t> cell, remap(out->vertex_count(), UINT32_MAX);
+  for (size_t v = 0; v < out->vertex_count(); ++v)
+    if (keep_vertex[v]) {
+      remap[v] = uint32_t(cell.size());
+      cell.push_back((*cell_of_vertex)[v]);
+      spliced.positions.insert(spliced.positions.end(), out->positions.begin() + 3 * v, out->positions.begin() + 3 * v + 3);
+    }
+  for (size_t f = 0; f < out->face_count(); ++f)
+    if (keep_face[f])
+      for (int k = 0; k < 3; ++k) spliced.indices.push_back(remap[out->indices[3 * f + k]]);
+  for (const Replacement& r : replacements) {
+    const uint32_t base = uint32_t(cell.size());
+    spliced.positions.insert(spliced.positions.end(), r.mesh.positions.begin(), r.mesh.positions.end());
+    cell.insert(cell.end(), r.cell.begin(), r.cell.end());
+    for (uint32_t i : r.mesh.indices) spliced.indices.push_back(base + i);
+  }
+  stats->parts_replaced = replacements.size();
+  *out = std::move(spliced);
+  *cell_of_vertex = std::move(cell);
+  return Status::Ok();
+}
+
+}  // namespace vpr

@@ -1,0 +1,36 @@
+// The last guard of "closed stays closed": a closed part of the input whose
+// dual (surface/cluster_mesh.h) came out open, non-manifold, in pieces or of
+// another genus is replaced by a quadric decimation of that part (OpenMesh's,
+// peers/peers.h: edge collapses that pass the link condition keep a closed
+// manifold closed and its genus) to the same number of vertices. The CVT's
+// topology step (surface_cvt.h) makes this rare; it is for the thin parts
+// that step cannot afford at the target (a wire ring 2% thick at 300
+// vertices, an octagonal table leg at 100: scripts/stress-shapes.py), where
+// a person would rather see a coarse leg than a hole.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/mesh.h"
+#include "core/status.h"
+#include "surface/mesh_edges.h"
+
+namespace vpr {
+
+struct PartFallbackStats {
+  size_t closed_parts = 0;     // closed parts of the surface
+  size_t parts_replaced = 0;   // closed parts whose dual was broken, now decimated
+  size_t parts_left = 0;       // broken, but the decimation was no better (left as the dual made them)
+};
+
+// surface: the refined input the CVT ran on, with its edges; label: its
+// vertices' cells. out, cell_of_vertex: the dual and each output vertex's
+// cell (mesh_clusters' results), rewritten where a part is replaced; a new
+// vertex's cell is that of the surface element nearest to it. target: the
+// job's vertex count; a replaced part gets its cells' share of it.
+Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const std::vector<uint32_t>& label,
+                            uint32_t target, Mesh* out, std::vector<uint32_t>* cell_of_vertex,
+                            PartFallbackStats* stats);
+
+}  // namespace vpr
