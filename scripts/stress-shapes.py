@@ -219,6 +219,11 @@ def shapes():
     yield "spheres-many-sizes", concat(*[(s * r + [4 * i, 0, 0], sf) for i, r in enumerate((1, 0.3, 0.1, 0.03))])
     yield "cup", cup()                                  # thin walls, a rim, an opening that is not a hole
     yield "dumbbell", dumbbell()                        # a neck 1% of the length
+    top, topf = box(1.0, 1.0, 0.05, n=20)
+    legs = [cylinder(1.0, 0.03, nu=8, nl=10) for _ in range(4)]
+    legs = [(np.c_[v[:, 1], v[:, 2], v[:, 0]] + [x, y, -0.5], f) for (v, f), (x, y) in
+            zip(legs, ((-0.4, -0.4), (0.4, -0.4), (-0.4, 0.4), (0.4, 0.4)))]
+    yield "low-poly-table", concat((top + [0, 0, 0.025], topf), *legs)  # octagonal legs as separate parts
     yield "far-small", ((s * 1e-3) + [1e5, -2e5, 3e4], sf)
 
 
