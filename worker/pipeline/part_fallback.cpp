@@ -96,11 +96,22 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
     part_faces[face_part[f]].push_back({t[0], t[1], t[2]});
     for (int k = 0; k < 3; ++k) vertex_part[t[k]] = face_part[f];
   }
-  // Closed input parts: every edge in two faces.
+  // Closed input parts (every edge in two faces) and their Euler
+  // characteristic, counted in one pass over the surface's rows (a sort of
+  // its million corners, as shape_of does for the small output, cost igea
+  // a second).
   std::vector<char> closed(parts, 1);
-  for (uint32_t u = 0; u < nv; ++u)
-    for (uint32_t i = edges.offset[u]; i < edges.offset[u + 1]; ++i)
-      if (edges.faces[i] != 2 && vertex_part[u] != UINT32_MAX) closed[vertex_part[u]] = 0;
+  std::vector<int64_t> euler(parts, 0);
+  for (uint32_t u = 0; u < nv; ++u) {
+    const uint32_t p = vertex_part[u];
+    if (p == UINT32_MAX) continue;
+    ++euler[p];
+    for (uint32_t i = edges.offset[u]; i < edges.offset[u + 1]; ++i) {
+      if (edges.faces[i] != 2) closed[p] = 0;
+      if (edges.neighbor[i] > u) --euler[p];
+    }
+  }
+  for (uint32_t p = 0; p < parts; ++p) euler[p] += int64_t(part_faces[p].size());
   uint32_t cells = 0;
   for (uint32_t l : label)
     if (l != UINT32_MAX) cells = std::max(cells, l + 1);
@@ -128,13 +139,8 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
   for (uint32_t p = 0; p < parts; ++p) {
     if (!closed[p]) continue;
     ++stats->closed_parts;
-    const Shape in = shape_of(part_faces[p]);
-    // Parts that touch others at a vertex (a leg standing on a table top,
-    // welded at one corner) are one part here and no 2-manifold can keep
-    // them as they are: left as the dual made them.
-    if (!in.closed_manifold || !in.one_piece) continue;
     const Shape now = shape_of(out_faces[p]);
-    if (now.closed_manifold && now.one_piece && now.euler == in.euler) continue;
+    if (now.closed_manifold && now.one_piece && now.euler == euler[p]) continue;
     // The part alone, compact, in the surface's frame.
     Mesh sub;
     sub.origin = surface.origin;
@@ -156,8 +162,12 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
     if (decimated.ok())
       for (size_t f = 0; f < decimated->mesh.face_count(); ++f)
         faces.push_back({decimated->mesh.indices[3 * f], decimated->mesh.indices[3 * f + 1], decimated->mesh.indices[3 * f + 2]});
+    // Parts that touch others at a vertex only (a leg whose cap centre was
+    // welded to a corner of the table top) are one part here, of another
+    // Euler characteristic than any 2-manifold: their decimation fails this
+    // too, and they stay as the dual made them.
     const Shape fixed = shape_of(faces);
-    if (!(fixed.closed_manifold && fixed.one_piece && fixed.euler == in.euler)) {
+    if (!(fixed.closed_manifold && fixed.one_piece && fixed.euler == euler[p])) {
       ++stats->parts_left;
       continue;
     }
