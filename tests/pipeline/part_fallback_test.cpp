@@ -13,28 +13,12 @@
 #include "surface/cluster_mesh.h"
 #include "surface/mesh_edges.h"
 #include "surface/surface_cvt.h"
+#include "test_meshes.h"
 
 namespace vpr {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-Mesh torus(double R, double r, int seg, int rings) {
-  Mesh m;
-  for (int j = 0; j < rings; ++j)
-    for (int i = 0; i < seg; ++i) {
-      const double u = 2 * kPi * j / rings, v = 2 * kPi * i / seg;
-      m.positions.insert(m.positions.end(), {float((R + r * std::cos(v)) * std::cos(u)),
-                                             float((R + r * std::cos(v)) * std::sin(u)), float(r * std::sin(v))});
-    }
-  for (int j = 0; j < rings; ++j)
-    for (int i = 0; i < seg; ++i) {
-      const uint32_t a = j * seg + i, b = j * seg + (i + 1) % seg, c = ((j + 1) % rings) * seg + i,
-                     d = ((j + 1) % rings) * seg + (i + 1) % seg;
-      m.indices.insert(m.indices.end(), {a, c, d, a, d, b});
-    }
-  return m;
-}
+using testing::torus;
 
 // Edges in exactly two faces, and V - E + F.
 std::pair<bool, long> closed_and_euler(const Mesh& m) {

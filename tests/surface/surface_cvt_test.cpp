@@ -22,6 +22,8 @@
 namespace vpr {
 namespace {
 
+using testing::torus;
+
 constexpr double kPi = 3.14159265358979323846;
 
 // A box centred at the origin, each face an n x n grid (two triangles per
@@ -80,23 +82,6 @@ struct Counts {
   size_t boundary_edges = 0, non_manifold_edges = 0, loops = 0;
 };
 
-// A torus about the z axis: ring radius R, tube radius r, seg x rings grid.
-Mesh torus(double R, double r, int seg, int rings) {
-  Mesh m;
-  for (int j = 0; j < rings; ++j)
-    for (int i = 0; i < seg; ++i) {
-      const double u = 2 * kPi * j / rings, v = 2 * kPi * i / seg;
-      m.positions.insert(m.positions.end(), {float((R + r * std::cos(v)) * std::cos(u)),
-                                             float((R + r * std::cos(v)) * std::sin(u)), float(r * std::sin(v))});
-    }
-  for (int j = 0; j < rings; ++j)
-    for (int i = 0; i < seg; ++i) {
-      const uint32_t a = j * seg + i, b = j * seg + (i + 1) % seg, c = ((j + 1) % rings) * seg + i,
-                     d = ((j + 1) % rings) * seg + (i + 1) % seg;
-      m.indices.insert(m.indices.end(), {a, c, d, a, d, b});
-    }
-  return m;
-}
 
 Counts count(const Mesh& m) {
   std::map<std::pair<uint32_t, uint32_t>, int> uses;

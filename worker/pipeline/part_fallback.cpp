@@ -43,7 +43,7 @@ Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces) {
   for (const auto& f : faces)
     for (int k = 0; k < 3; ++k) link.push_back({local(f[k]), local(f[(k + 1) % 3]), local(f[(k + 2) % 3])});
   std::sort(link.begin(), link.end());
-  std::vector<uint32_t> parent(verts.size());
+  std::vector<uint32_t> parent(verts.size()), roots;
   auto find = [&](uint32_t x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
@@ -56,7 +56,7 @@ Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces) {
       const uint32_t a = find(link[k][1]), b = find(link[k][2]);
       if (a != b) parent[a] = b;
     }
-    std::vector<uint32_t> roots;
+    roots.clear();
     for (size_t k = i; k < j; ++k) roots.push_back(find(link[k][1]));
     std::sort(roots.begin(), roots.end());
     manifold = std::unique(roots.begin(), roots.end()) - roots.begin() == 1;
@@ -89,12 +89,11 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
   size_t parts = 0;
   const std::vector<uint32_t> face_part = face_parts(surface, &parts);
   std::vector<uint32_t> vertex_part(nv, UINT32_MAX);
-  std::vector<std::vector<std::array<uint32_t, 3>>> part_faces(parts);
+  std::vector<int64_t> part_face_count(parts, 0);
   for (size_t f = 0; f < surface.face_count(); ++f) {
     if (face_part[f] == UINT32_MAX) continue;
-    const uint32_t* t = &surface.indices[3 * f];
-    part_faces[face_part[f]].push_back({t[0], t[1], t[2]});
-    for (int k = 0; k < 3; ++k) vertex_part[t[k]] = face_part[f];
+    ++part_face_count[face_part[f]];
+    for (int k = 0; k < 3; ++k) vertex_part[surface.indices[3 * f + k]] = face_part[f];
   }
   // Closed input parts (every edge in two faces) and their Euler
   // characteristic, counted in one pass over the surface's rows (a sort of
@@ -111,7 +110,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
       if (edges.neighbor[i] > u) --euler[p];
     }
   }
-  for (uint32_t p = 0; p < parts; ++p) euler[p] += int64_t(part_faces[p].size());
+  for (uint32_t p = 0; p < parts; ++p) euler[p] += part_face_count[p];
   uint32_t cells = 0;
   for (uint32_t l : label)
     if (l != UINT32_MAX) cells = std::max(cells, l + 1);
@@ -146,14 +145,18 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
     sub.origin = surface.origin;
     sub.scale = surface.scale;
     std::vector<uint32_t> local(nv, UINT32_MAX), global;
-    for (const auto& f : part_faces[p])
-      for (uint32_t v : f)
+    for (size_t f = 0; f < surface.face_count(); ++f) {
+      if (face_part[f] != p) continue;
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t v = surface.indices[3 * f + k];
         if (local[v] == UINT32_MAX) {
           local[v] = uint32_t(global.size());
           global.push_back(v);
           sub.positions.insert(sub.positions.end(), surface.positions.begin() + 3 * v, surface.positions.begin() + 3 * v + 3);
         }
-    for (const auto& f : part_faces[p]) sub.indices.insert(sub.indices.end(), {local[f[0]], local[f[1]], local[f[2]]});
+        sub.indices.push_back(local[v]);
+      }
+    }
     // The part's share of the target (the cells may be more than the target
     // where the topology step could not merge enough of them away).
     const uint32_t share = uint32_t(std::lround(double(part_cells[p]) * std::min(1.0, double(target) / std::max(cells, 1u))));

@@ -591,59 +591,53 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     // degrees of its seed (kFacing), so that no cell starts round a thin part
     // or over the rim of a thin plate; then, from where that stopped, the
     // elements no cell could take (a part with a seed on one side only) go to
-    // the nearest cell whatever way they face.
-    std::vector<char> settled;
+    // the nearest cell whatever way they face, the first pass's cells settled.
+    std::vector<char> settled(nv, 0);
     uint32_t round = 1;
-    for (int pass = 0; pass < 2; ++pass) {
-    const bool facing = pass == 0;
-    if (!facing) {
-      settled.assign(nv, 0);
-      front.clear();
-      for (uint32_t v = 0; v < nv; ++v) {
-        settled[v] = label[v] != UINT32_MAX;
-        if (settled[v])
-          for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
-            if (label[*w] == UINT32_MAX) {
-              front.push_back(v);
-              break;
+    auto grow = [&](bool facing) {
+      for (; !front.empty(); ++round) {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, front.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+          auto& out = local.local();
+          for (size_t i = r.begin(); i != r.end(); ++i)
+            for (const uint32_t* w = adj.begin(front[i]); w != adj.end(front[i]); ++w)
+              if (!settled[*w] && listed[*w].exchange(round, std::memory_order_relaxed) != round)
+                out.push_back(*w);
+        });
+        gather(&candidates);
+        better.resize(candidates.size());
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+          for (size_t i = r.begin(); i != r.end(); ++i) {
+            const uint32_t v = candidates[i];
+            better[i] = {dist[v], UINT32_MAX};
+            for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
+              if (facing && label[*w] != UINT32_MAX &&
+                  dot(vertex_normal[v], vertex_normal[seeds[label[*w]]]) < kFacing)
+                continue;
+              const double nd = dist[*w] + norm(x[*w] - x[v]);
+              if (nd < better[i].first) better[i] = {nd, label[*w]};
             }
+          }
+        });
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+          auto& out = local.local();
+          for (size_t i = r.begin(); i != r.end(); ++i)
+            if (better[i].second != UINT32_MAX) {
+              dist[candidates[i]] = better[i].first;
+              label[candidates[i]] = better[i].second;
+              out.push_back(candidates[i]);
+            }
+        });
+        gather(&front);
       }
+    };
+    grow(true);
+    front.clear();
+    for (uint32_t v = 0; v < nv; ++v) {
+      settled[v] = label[v] != UINT32_MAX;
+      if (settled[v] && std::any_of(adj.begin(v), adj.end(v), [&](uint32_t w) { return label[w] == UINT32_MAX; }))
+        front.push_back(v);
     }
-    for (; !front.empty(); ++round) {
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, front.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
-        auto& out = local.local();
-        for (size_t i = r.begin(); i != r.end(); ++i)
-          for (const uint32_t* w = adj.begin(front[i]); w != adj.end(front[i]); ++w)
-            if ((facing || !settled[*w]) && listed[*w].exchange(round, std::memory_order_relaxed) != round)
-              out.push_back(*w);
-      });
-      gather(&candidates);
-      better.resize(candidates.size());
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t i = r.begin(); i != r.end(); ++i) {
-          const uint32_t v = candidates[i];
-          better[i] = {dist[v], UINT32_MAX};
-          for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
-            if (facing && label[*w] != UINT32_MAX &&
-                dot(vertex_normal[v], vertex_normal[seeds[label[*w]]]) < kFacing)
-              continue;
-            const double nd = dist[*w] + norm(x[*w] - x[v]);
-            if (nd < better[i].first) better[i] = {nd, label[*w]};
-          }
-        }
-      });
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
-        auto& out = local.local();
-        for (size_t i = r.begin(); i != r.end(); ++i)
-          if (better[i].second != UINT32_MAX) {
-            dist[candidates[i]] = better[i].first;
-            label[candidates[i]] = better[i].second;
-            out.push_back(candidates[i]);
-          }
-      });
-      gather(&front);
-    }
-    }
+    grow(false);
   }
 
   uint32_t clusters_now = count;
