@@ -459,6 +459,30 @@ TEST(SurfaceCvtTest, AnisotropicCellsStretchAlongACylinder) {
   EXPECT_TRUE(aniso_stats.converged);
 }
 
+TEST(SurfaceCvtTest, CellsBesideCreasesStayWholeAtFineSpacing) {
+  // Beside a sharp vertex the anisotropic offset ramps up from zero (see
+  // anisotropic_offsets); over elements far smaller than the offset, the
+  // ramps round a scan's scattered sharp vertices squeezed the cells into
+  // slivers whose dual vertex is not a manifold, and the topology step then
+  // split and merged hundreds of cells (igea at 50,000, horse at 20,000). A
+  // sphere with small spikes has no thin part and no handle: no cell should
+  // need splitting.
+  Mesh s = testing::icosphere(4);
+  for (size_t v = 0; v < s.vertex_count(); v += 7)
+    for (int k = 0; k < 3; ++k) s.positions[3 * v + k] *= 1.03f;
+  // An offset of 0.12 of the diagonal at 3,000 vertices: the ramp's slope
+  // (offset per hop over the hop's length) as a scan's at 50,000 with the
+  // default 0.04; before the ramp was bounded, 251 cells were split here and
+  // the sweeps ran 147 times instead of about 20.
+  CvtStats stats;
+  const Mesh out = remesh(s, 3000, DensityMode::kUniform, &stats, {}, nullptr, 0.12);
+  EXPECT_EQ(stats.cells_split, 0u);
+  EXPECT_EQ(stats.defective_cells, 0u);
+  EXPECT_LT(stats.sweeps, 60);
+  EXPECT_EQ(count(out).boundary_edges, 0u);
+  EXPECT_EQ(count(out).non_manifold_edges, 0u);
+}
+
 TEST(SurfaceCvtTest, SmallPartsAreKept) {
   // Three closed boxes of sizes 1, 0.1 and 0.05: each gets vertices and stays closed.
   Mesh m;

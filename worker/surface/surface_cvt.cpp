@@ -293,6 +293,15 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const Adjacency& adj, co
   return out;
 }
 
+// The steepest ramp of the anisotropic offset beside a sharp vertex, in
+// offset per unit of length along the surface (anisotropic_offsets). Chosen
+// on the referee's 30 cases and on scans at 10,000 to 50,000 vertices
+// (docs/quality.md): 1.5 changes four of the 30 (those whose ramp was
+// steeper) within their seed-to-seed noise and leaves no cell to split on the
+// scans; 2 left horse at 20,000 with 11, and 1 changed 14 of the 30 with no
+// mean for the better.
+constexpr double kMaxTaperSlope = 1.5;
+
 // The normal half of each element's position in R^6, (x, a n) (Levy and
 // Bonneel 2012): a cell then pays for the spread of its normals as for the
 // spread of its positions, so cells stretch along the directions in which the
@@ -304,7 +313,8 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const Adjacency& adj, co
 //   about half a cell's width), so that a scan's noise does not fray the
 //   cells into slivers.
 // - The offset tapers to zero within about two cells' widths (2 sqrt(k)
-//   hops) of a sharp vertex (a face normal more than 15 degrees from its
+//   hops, more where that ramp would be steeper than kMaxTaperSlope) of a
+//   sharp vertex (a face normal more than 15 degrees from its
 //   vertex normal: a dihedral angle over about 30 degrees, the dual's
 //   crease): there the crease is kept by the dual's quadric placement
 //   (cluster_mesh.h), which needs cells that cover the crease, while in R^6
@@ -317,7 +327,23 @@ std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, c
   if (!(anisotropy > 0)) return y;
   const double per_cell = double(nv) / std::max<uint32_t>(count, 1);
   const int passes = int(std::clamp(std::lround(per_cell / 2), 1L, 64L));
-  const int taper = int(std::clamp(std::lround(2 * std::sqrt(per_cell)), 1L, 64L));
+  // The taper's ramp adds anisotropy / taper to every hop's length in R^6;
+  // over a hop of mean length e that is a slope of anisotropy / (taper e),
+  // which grows as the elements shrink (more output vertices). Past about 2
+  // the cells across the ramps round a scan's scattered sharp vertices are
+  // squeezed into slivers whose dual vertex is not a manifold, and the
+  // topology step splits and merges them for many more sweeps (horse at
+  // 10,000: slope 2.4, 14 cells; bunny at 20,000: 2.7, 189; igea at 50,000:
+  // 4.0, 1,270 cells and 130 more sweeps, the CVT 3.6 times as long). The
+  // ramp is made longer where needed to keep its slope at most
+  // kMaxTaperSlope (a sequential sum: the same bits on any thread count).
+  double edge_sum = 0;
+  size_t edge_count = 0;
+  for (uint32_t v = 0; v < nv; ++v)
+    for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) edge_sum += norm(x[*w] - x[v]), ++edge_count;
+  const double mean_edge = edge_count ? edge_sum / double(edge_count) : 0.0;
+  const double slope_hops = mean_edge > 0 ? std::ceil(anisotropy / (kMaxTaperSlope * mean_edge)) : 1.0;
+  const int taper = int(std::clamp(std::max(std::lround(2 * std::sqrt(per_cell)), long(std::min(slope_hops, 1e6))), 1L, 256L));
   std::vector<Vec3d> now = vertex_normal, next(nv);
   for (int it = 0; it < passes; ++it) {
     // Jacobi passes: each vertex reads only the last pass, so any thread
