@@ -165,10 +165,10 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
     if (decimated.ok())
       for (size_t f = 0; f < decimated->mesh.face_count(); ++f)
         faces.push_back({decimated->mesh.indices[3 * f], decimated->mesh.indices[3 * f + 1], decimated->mesh.indices[3 * f + 2]});
-    // Parts that touch others at a vertex only (a leg whose cap centre was
-    // welded to a corner of the table top) are one part here, of another
-    // Euler characteristic than any 2-manifold: their decimation fails this
-    // too, and they stay as the dual made them.
+    // A decimation that is no better (it cannot keep the part's genus) is
+    // not taken: the part stays as the dual made it. (Parts welded at single
+    // vertices no longer reach here as one part: refine_surface splits such
+    // vertices, surface/pinch_split.h.)
     const Shape fixed = shape_of(faces);
     if (!(fixed.closed_manifold && fixed.one_piece && fixed.euler == euler[p])) {
       ++stats->parts_left;

@@ -503,6 +503,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       CvtOptions cvt = options.cvt;
       cvt.seed = options.sampling.seed;
       cvt.anisotropy = options.anisotropy;  // the input has a unit diagonal here
+      cvt.joined_elements = refined.pinch_copies;  // parts split at a pinch share one equal share
       VPR_RETURN_IF_ERROR(stage.run(
           "cvt", cpu,
           [&]() -> Status {

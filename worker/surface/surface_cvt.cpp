@@ -511,6 +511,25 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   // where the target allows; largest remainders first. One part, or parts of
   // equal mass, get exactly the mass share.
   const double total_mass = std::accumulate(part_mass.begin(), part_mass.end(), 0.0);
+  // Groups of parts joined at a split pinch share one equal share, split
+  // between them by mass (each group's parts joined, the root its lowest part).
+  std::vector<uint32_t> group(parts);
+  std::iota(group.begin(), group.end(), 0u);
+  auto root = [&](uint32_t p) {
+    while (group[p] != p) p = group[p] = group[group[p]];
+    return p;
+  };
+  for (const auto& [a, b] : options.joined_elements) {
+    if (a >= nv || b >= nv || part[a] == UINT32_MAX || part[b] == UINT32_MAX) continue;
+    const uint32_t ra = root(part[a]), rb = root(part[b]);
+    if (ra != rb) group[std::max(ra, rb)] = std::min(ra, rb);
+  }
+  std::vector<double> group_mass(parts, 0.0);
+  size_t groups = 0;
+  for (uint32_t p = 0; p < parts; ++p) {
+    group_mass[root(p)] += part_mass[p];
+    groups += root(p) == p;
+  }
   std::vector<uint32_t> quota(parts, 0);
   {
     std::vector<uint32_t> floor_of(parts);
@@ -525,7 +544,8 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     for (size_t p = 0; p < parts; ++p) {
       const double by_mass = total_mass > 0 ? part_mass[p] / total_mass : 1.0 / double(parts);
       const double equal = options.equal_part_share;
-      const double share = double(count) * ((1.0 - equal) * by_mass + equal / double(parts));
+      const double in_group = group_mass[root(uint32_t(p))] > 0 ? part_mass[p] / group_mass[root(uint32_t(p))] : 1.0;
+      const double share = double(count) * ((1.0 - equal) * by_mass + equal / double(groups) * in_group);
       quota[p] = std::min<uint32_t>(uint32_t(share), uint32_t(part_elements[p].size()));
       if (minimum_fits) quota[p] = std::max(quota[p], floor_of[p]);
       assigned += quota[p];

@@ -26,6 +26,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/mesh.h"
@@ -43,6 +44,11 @@ struct CvtOptions {
   // mass: every part gets at least count * equal_part_share / parts clusters
   // whatever its size, so small parts keep their shape (docs/pipeline.md).
   double equal_part_share = 0.25;
+  // Per job: pairs of elements whose parts count as one in that equal share
+  // (a vertex and its copy where refine_surface split a pinch: a table's
+  // legs, welded to its top at one vertex each, share the table's equal
+  // share instead of drawing one each from the rest).
+  std::vector<std::pair<uint32_t, uint32_t>> joined_elements;
   uint32_t min_per_loop = 3;  // clusters on each boundary loop at least (fewer and the dual closes it), quota permitting
   // Cells whose dual vertex would be non-manifold are split, in up to this
   // many rounds, up to max_split_fraction x count splits in all; as many

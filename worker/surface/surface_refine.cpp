@@ -10,6 +10,7 @@
 #include <tbb/parallel_sort.h>
 
 #include "core/vec3.h"
+#include "surface/pinch_split.h"
 
 namespace vpr {
 namespace {
@@ -83,6 +84,12 @@ StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<flo
     out.face.push_back(uint32_t(f));
   }
   if (out.mesh.indices.empty()) return invalid_argument("refine: the mesh has no face of positive area");
+  // Pinched vertices (fans that meet at a vertex only): a copy per extra fan.
+  out.pinch_copies = split_pinched_vertices(&out.mesh.indices, &count);
+  for (const auto& [copy, original] : out.pinch_copies) {
+    for (int c = 0; c < 3; ++c) pos.push_back(pos[3 * size_t(original) + c]);
+    for (size_t c = 0; c < k; ++c) out.value.push_back(out.value[k * original + c]);
+  }
 
   // Passes of midpoint splits: each face keeps its corners' order, so the
   // refined faces keep the input's orientation. New vertices are numbered

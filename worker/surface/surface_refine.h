@@ -2,10 +2,12 @@
 // tessellation (surface_cvt.h): every edge at most `max_edge` long, by
 // splitting edges at their midpoints (the shape is unchanged: new vertices lie
 // on the input's triangles). Exact duplicate positions are welded first, so a
-// mesh exported as separate triangles regains its connectivity.
+// mesh exported as separate triangles regains its connectivity; then a vertex
+// where several fans meet gets a copy per extra fan (surface/pinch_split.h).
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/mesh.h"
@@ -20,6 +22,8 @@ struct RefinedSurface {
   std::vector<float> value;    // channels per refined vertex: the input's values, linearly interpolated
   std::vector<uint32_t> face;  // per refined face: the input face it lies in
   MeshEdges edges;             // the refined mesh's edges (mesh_edges(mesh)), a by-product of the last pass
+  // (copy, original) for each vertex split where fans met (surface/pinch_split.h)
+  std::vector<std::pair<uint32_t, uint32_t>> pinch_copies;
 };
 
 // value: `channels` numbers per input vertex (e.g. importance, density),
