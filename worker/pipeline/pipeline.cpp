@@ -495,6 +495,9 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           note = std::string(density_mode_name(options.density)) + " density; " +
                  std::to_string(refined.mesh.vertex_count()) + " surface elements" +
                  (soup ? "; a polygon soup: the paper's back half follows" : "");
+          if (!refined.pinch_copies.empty())
+            note += "; " + std::to_string(refined.pinch_copies.size()) +
+                    " copies of vertices where fans of faces met only at them (sheets apart there)";
           return Status::Ok();
         },
         &note));
