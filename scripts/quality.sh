@@ -37,10 +37,12 @@ METHODS=${METHODS:-"ours-curvature meshlab-adaptive cgal-isotropic openmesh-qem 
 [ -x "$BIN" ] || { echo "quality.sh: no vpremesh binary at $BIN (make build, or pass its path)" >&2; exit 2; }
 [ -n "$CASES" ] || { echo "quality.sh: no cases (could not read density-compare.sh's list)" >&2; exit 2; }
 
-if [ ! -x "$VENV/bin/python" ] || ! "$VENV/bin/python" -c 'import pymeshlab, flip_evaluator, numpy, PIL' 2>/dev/null; then
-  echo "quality.sh: making $VENV (pymeshlab flip-evaluator numpy pillow)" >&2
+# scipy: scripts/gaze-score.py's k-d tree (without it the fixation-weighted
+# error of a 10,000-vertex remesh takes minutes instead of a second).
+if [ ! -x "$VENV/bin/python" ] || ! "$VENV/bin/python" -c 'import pymeshlab, flip_evaluator, numpy, PIL, scipy' 2>/dev/null; then
+  echo "quality.sh: making $VENV (pymeshlab flip-evaluator numpy pillow scipy)" >&2
   python3 -m venv "$VENV"
-  "$VENV/bin/pip" install -q pymeshlab flip-evaluator numpy pillow
+  "$VENV/bin/pip" install -q pymeshlab flip-evaluator numpy pillow scipy
 fi
 PY="$VENV/bin/python"
 
