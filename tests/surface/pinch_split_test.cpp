@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <map>
 #include <numeric>
 #include <set>
@@ -41,29 +42,37 @@ size_t most_fans(const std::vector<uint32_t>& indices, size_t vertex_count) {
   return most;
 }
 
-// A tetrahedron (outward faces) whose first vertex is `apex` and the others new.
-void add_tetrahedron(std::vector<uint32_t>* indices, uint32_t apex, uint32_t* next) {
-  const uint32_t a = apex, b = (*next)++, c = (*next)++, d = (*next)++;
+// A tetrahedron whose first vertex is `apex` and whose base is `dir` away
+// along x (tetrahedra that meet at a vertex only: their faces' orientation
+// does not matter here).
+void add_tetrahedron(std::vector<uint32_t>* indices, std::vector<double>* positions, uint32_t apex, double dir) {
+  const uint32_t a = apex, b = uint32_t(positions->size() / 3), c = b + 1, d = b + 2;
+  const double x = (*positions)[3 * apex], y = (*positions)[3 * apex + 1], z = (*positions)[3 * apex + 2];
+  positions->insert(positions->end(), {x + dir, y + 1, z, x + dir, y - 1, z + 1, x + dir, y - 1, z - 1});
   indices->insert(indices->end(), {a, b, c, a, c, d, a, d, b, b, d, c});
 }
+
+// Positions of a mesh as doubles.
+std::vector<double> doubles(const std::vector<float>& p) { return std::vector<double>(p.begin(), p.end()); }
 
 TEST(PinchSplit, AManifoldMeshIsLeftAsItIs) {
   const Mesh sphere = testing::icosphere(2);
   std::vector<uint32_t> indices = sphere.indices;
   size_t count = sphere.vertex_count();
-  EXPECT_TRUE(split_pinched_vertices(&indices, &count).empty());
+  EXPECT_TRUE(split_pinched_vertices(&indices, &count, doubles(sphere.positions)).empty());
   EXPECT_EQ(count, sphere.vertex_count());
   EXPECT_EQ(indices, sphere.indices);
 }
 
 TEST(PinchSplit, ThreeTetrahedraAtOneVertexGetTwoCopies) {
   std::vector<uint32_t> indices;
-  uint32_t next = 1;
-  for (int k = 0; k < 3; ++k) add_tetrahedron(&indices, 0, &next);
+  std::vector<double> positions = {0, 0, 0};
+  for (double dir : {1.0, -1.0, 2.0}) add_tetrahedron(&indices, &positions, 0, dir);
+  const uint32_t next = uint32_t(positions.size() / 3);
   size_t count = next;
   ASSERT_EQ(most_fans(indices, count), 3u);
   const std::vector<uint32_t> before = indices;
-  const auto copies = split_pinched_vertices(&indices, &count);
+  const auto copies = split_pinched_vertices(&indices, &count, positions);
   ASSERT_EQ(copies.size(), 2u);
   EXPECT_EQ(count, size_t(next) + 2);
   EXPECT_EQ(copies[0], std::make_pair(next, 0u));
@@ -83,7 +92,8 @@ TEST(PinchSplit, TwoSheetsMeetingAtACornerComeApart) {
   // vertex 0 (a repeated corner), which joins nothing and is left alone.
   std::vector<uint32_t> indices = {0, 1, 2, 0, 3, 4, 0, 0, 5};
   size_t count = 6;
-  const auto copies = split_pinched_vertices(&indices, &count);
+  const std::vector<double> positions = {0, 0, 0, 1, 0, 0, 1, 1, 0, -1, 0, 0, -1, -1, 0, 0, 0, 1};
+  const auto copies = split_pinched_vertices(&indices, &count, positions);
   ASSERT_EQ(copies.size(), 1u);
   EXPECT_EQ(copies[0], std::make_pair(6u, 0u));
   EXPECT_EQ(indices, (std::vector<uint32_t>{0, 1, 2, 6, 3, 4, 0, 0, 5}));
@@ -93,8 +103,106 @@ TEST(PinchSplit, AVertexWhereFansJoinThroughAnotherVertexIsNotSplit) {
   // Four triangles round vertex 0, closed into one fan: no copy.
   std::vector<uint32_t> indices = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 1};
   size_t count = 5;
-  EXPECT_TRUE(split_pinched_vertices(&indices, &count).empty());
+  const std::vector<double> positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0};
+  EXPECT_TRUE(split_pinched_vertices(&indices, &count, positions).empty());
   EXPECT_EQ(count, 5u);
+}
+
+// Edges used by more than two faces, counted from the index buffer.
+size_t crowded_edges(const std::vector<uint32_t>& indices) {
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (size_t f = 0; f < indices.size() / 3; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = indices[3 * f + k], b = indices[3 * f + (k + 1) % 3];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  size_t n = 0;
+  for (const auto& [e, u] : uses) n += u > 2;
+  return n;
+}
+
+// Closed pieces: every edge of each piece (faces joined by edges) in two faces.
+bool every_edge_in_two_faces(const std::vector<uint32_t>& indices) {
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (size_t f = 0; f < indices.size() / 3; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = indices[3 * f + k], b = indices[3 * f + (k + 1) % 3];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  for (const auto& [e, u] : uses)
+    if (u != 2) return false;
+  return true;
+}
+
+// An axis-aligned cube [x, x + 1] x [y, y + 1] x [0, 1] from 12 triangles, outward.
+void add_cube(std::vector<uint32_t>* indices, std::vector<double>* positions, double x, double y) {
+  const uint32_t base = uint32_t(positions->size() / 3);
+  for (int c = 0; c < 8; ++c)
+    positions->insert(positions->end(), {x + (c & 1), y + ((c >> 1) & 1), double((c >> 2) & 1)});
+  const uint32_t quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads)
+    indices->insert(indices->end(), {base + q[0], base + q[1], base + q[2], base + q[0], base + q[2], base + q[3]});
+}
+
+// The vertices at the same position as another: welds them, as refine_surface does.
+void weld(std::vector<uint32_t>* indices, const std::vector<double>& positions) {
+  std::map<std::array<double, 3>, uint32_t> first;
+  std::vector<uint32_t> to(positions.size() / 3);
+  for (uint32_t v = 0; v < to.size(); ++v)
+    to[v] = first.emplace(std::array<double, 3>{positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]}, v)
+                .first->second;
+  for (uint32_t& i : *indices) i = to[i];
+}
+
+TEST(PinchSplit, TwoCubesSharingAnEdgeComeApartAsTwoClosedCubes) {
+  // Cubes [0,1]^3 and [1,2] x [1,2] x [0,1]: the edge x = y = 1 is in four
+  // faces. Paired by the solid each bounds, each cube keeps its own two.
+  std::vector<uint32_t> indices;
+  std::vector<double> positions;
+  add_cube(&indices, &positions, 0, 0);
+  add_cube(&indices, &positions, 1, 1);
+  weld(&indices, positions);
+  size_t count = positions.size() / 3;
+  ASSERT_EQ(crowded_edges(indices), 1u);
+  const auto copies = split_pinched_vertices(&indices, &count, positions);
+  EXPECT_EQ(copies.size(), 2u);  // the edge's two ends
+  EXPECT_EQ(crowded_edges(indices), 0u);
+  EXPECT_TRUE(every_edge_in_two_faces(indices));  // both cubes still closed
+  EXPECT_EQ(most_fans(indices, count), 1u);
+}
+
+TEST(PinchSplit, ADoubleSidedSheetStaysJoined) {
+  // A square drawn both ways round (a double-sided card, as game assets have
+  // them): its diagonal is in four faces, two on top of two, with no sector
+  // between them to pair by. It stays as it was.
+  std::vector<uint32_t> indices = {0, 1, 2, 0, 2, 3, 0, 2, 1, 0, 3, 2};
+  const std::vector<double> positions = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+  const std::vector<uint32_t> before = indices;
+  size_t count = 4;
+  EXPECT_TRUE(split_pinched_vertices(&indices, &count, positions).empty());
+  EXPECT_EQ(indices, before);
+}
+
+TEST(PinchSplit, AFinOnACubeLeavesTheCubeClosed) {
+  // A triangle standing on the cube's top edge y = 0, z = 1 (three faces on
+  // that edge): the cube's two faces there are one sheet, the fin its own.
+  std::vector<uint32_t> indices;
+  std::vector<double> positions;
+  add_cube(&indices, &positions, 0, 0);
+  weld(&indices, positions);
+  const uint32_t tip = uint32_t(positions.size() / 3);
+  positions.insert(positions.end(), {0.5, -0.5, 1.5});
+  indices.insert(indices.end(), {4, 5, tip});  // corners 4 = (0,0,1), 5 = (1,0,1)
+  size_t count = positions.size() / 3;
+  ASSERT_EQ(crowded_edges(indices), 1u);
+  const auto copies = split_pinched_vertices(&indices, &count, positions);
+  EXPECT_EQ(copies.size(), 2u);
+  EXPECT_EQ(crowded_edges(indices), 0u);
+  std::vector<uint32_t> cube(indices.begin(), indices.end() - 3);
+  EXPECT_TRUE(every_edge_in_two_faces(cube));  // the cube closed without the fin's face
+  const uint32_t* fin = &indices[indices.size() - 3];
+  EXPECT_GE(fin[0], 9u);  // the fin's base corners are the copies
+  EXPECT_GE(fin[1], 9u);
 }
 
 }  // namespace

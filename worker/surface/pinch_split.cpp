@@ -1,12 +1,21 @@
 #include "surface/pinch_split.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
+#include "core/vec3.h"
+
 namespace vpr {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+
+}  // namespace
 
 std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<uint32_t>* indices_io,
-                                                                   size_t* vertex_count) {
+                                                                   size_t* vertex_count,
+                                                                   const std::vector<double>& positions) {
   std::vector<uint32_t>& indices = *indices_io;
   const size_t nv = *vertex_count;
   // Corners by vertex (counting sort: the faces of each vertex ascending).
@@ -17,18 +26,83 @@ std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<ui
   for (size_t c = 0; c < indices.size(); ++c) corner[fill[indices[c]]++] = uint32_t(c);
 
   std::vector<std::pair<uint32_t, uint32_t>> copies;
+  auto position = [&](uint32_t i) {  // a copy sits where its original does
+    const size_t o = i < nv ? i : copies[i - nv].second;
+    return Vec3d{positions[3 * o], positions[3 * o + 1], positions[3 * o + 2]};
+  };
+  // The faces round an edge used by more than two, paired into sheets: going
+  // round the edge (from its lower-numbered end a to b), a face's normal
+  // points towards increasing angle when it runs a -> b and towards
+  // decreasing angle when it runs b -> a; the sector between a face whose
+  // normal points away from it on each side is inside a solid, and those two
+  // faces are one sheet there (two boxes that share an edge stay two closed
+  // boxes; a fin on a face is left alone, its own sheet). partner[i]: the
+  // slot paired with slot i, or itself.
+  std::vector<std::pair<double, uint32_t>> round;
+  std::vector<uint32_t> partner;
+  bool coincident = false;
+  auto pair_round_edge = [&](uint32_t a, uint32_t b, const std::vector<uint32_t>& faces, const std::vector<int>& forward) {
+    const size_t k = faces.size();
+    partner.resize(k);
+    std::iota(partner.begin(), partner.end(), 0u);
+    coincident = false;
+    const Vec3d pa = position(a), d = position(b) - pa;
+    const double len2 = dot(d, d);
+    if (!(len2 > 0)) {
+      coincident = true;  // no direction to go round: joined as it was
+      return;
+    }
+    Vec3d e1{0, 0, 0}, e2{0, 0, 0};
+    round.clear();
+    for (size_t i = 0; i < k; ++i) {
+      const uint32_t* t = &indices[3 * size_t(faces[i])];
+      uint32_t o = t[0];
+      for (int c = 0; c < 3; ++c)
+        if (t[c] != a && t[c] != b) o = t[c];
+      Vec3d r = position(o) - pa;
+      r = r - d * (dot(r, d) / len2);  // across the edge
+      if (i == 0) {
+        e1 = r;
+        e2 = cross(d, r);
+      }
+      round.push_back({std::atan2(dot(r, e2), dot(r, e1) * std::sqrt(len2)), uint32_t(i)});  // |e2| = |d| |e1|
+    }
+    std::sort(round.begin(), round.end());  // by angle, ties by slot: one order
+    // Two faces on top of each other (a double-sided sheet: the same
+    // triangles both ways round) leave no sector between them to tell the
+    // inside by; such an edge stays joined as it was (all its faces one fan).
+    for (size_t j = 0; j < k; ++j) {
+      const double gap = j + 1 < k ? round[j + 1].first - round[j].first : round[0].first + kTwoPi - round[j].first;
+      if (!(gap > 1e-9)) {
+        coincident = true;
+        return;
+      }
+    }
+    for (size_t j = 0; j < k; ++j) {
+      const uint32_t s = round[j].second, t = round[(j + 1) % k].second;
+      // s's normal points back (b -> a), t's forward (a -> b): inside between them.
+      if (!forward[s] && forward[t] && partner[s] == s && partner[t] == t && s != t) partner[s] = t, partner[t] = s;
+    }
+  };
+
   std::vector<std::pair<uint32_t, uint32_t>> spokes;  // (other end, corner's slot) of v's edges
   std::vector<uint32_t> fan, name;  // per slot of v: its fan's root; per root: its vertex
+  std::vector<uint32_t> run_faces;
+  std::vector<int> run_forward;
   for (uint32_t v = 0; v < nv; ++v) {
     const uint32_t begin = offset[v], n = offset[v + 1] - begin;
     if (n < 2) continue;
-    // Two of v's faces are in one fan when they share an edge at v: union
-    // the slots of every spoke's faces.
+    // Two of v's faces are in one fan when they share an edge at v (and, on
+    // an edge of more than two faces, are one sheet there).
     fan.resize(n);
     std::iota(fan.begin(), fan.end(), 0u);
     auto find = [&](uint32_t a) {
       while (fan[a] != a) a = fan[a] = fan[fan[a]];
       return a;
+    };
+    auto join = [&](uint32_t a, uint32_t b) {
+      const uint32_t ra = find(a), rb = find(b);
+      if (ra != rb) fan[std::max(ra, rb)] = std::min(ra, rb);  // the root is the fan's first face
     };
     spokes.clear();
     for (uint32_t i = 0; i < n; ++i) {
@@ -39,11 +113,31 @@ std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<ui
       spokes.push_back({b, i});
     }
     std::sort(spokes.begin(), spokes.end());
-    for (size_t k = 1; k < spokes.size(); ++k)
-      if (spokes[k].first == spokes[k - 1].first) {
-        const uint32_t ra = find(spokes[k].second), rb = find(spokes[k - 1].second);
-        if (ra != rb) fan[std::max(ra, rb)] = std::min(ra, rb);  // the root is the fan's first face
+    for (size_t lo = 0; lo < spokes.size();) {
+      size_t hi = lo + 1;
+      while (hi < spokes.size() && spokes[hi].first == spokes[lo].first) ++hi;
+      if (hi - lo == 2) {
+        join(spokes[lo].second, spokes[lo + 1].second);
+      } else if (hi - lo > 2) {
+        const uint32_t w = spokes[lo].first, a = std::min(v, w), b = std::max(v, w);
+        run_faces.clear();
+        run_forward.clear();
+        for (size_t s = lo; s < hi; ++s) {
+          const uint32_t c = corner[begin + spokes[s].second], f = c / 3;
+          run_faces.push_back(f);
+          // a -> b in this face: the corner after a is b.
+          const uint32_t* t = &indices[3 * size_t(f)];
+          int forward = 0;
+          for (int q = 0; q < 3; ++q) forward |= t[q] == a && t[(q + 1) % 3] == b;
+          run_forward.push_back(forward);
+        }
+        pair_round_edge(a, b, run_faces, run_forward);
+        for (size_t s = 0; s < hi - lo; ++s)
+          if (coincident) join(spokes[lo].second, spokes[lo + s].second);
+          else if (partner[s] != s) join(spokes[lo + s].second, spokes[lo + partner[s]].second);
       }
+      lo = hi;
+    }
     // The first fan (that of v's first face) keeps v; each other fan, in the
     // order of its first face, gets a copy.
     name.assign(n, UINT32_MAX);

@@ -84,8 +84,9 @@ StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<flo
     out.face.push_back(uint32_t(f));
   }
   if (out.mesh.indices.empty()) return invalid_argument("refine: the mesh has no face of positive area");
-  // Pinched vertices (fans that meet at a vertex only): a copy per extra fan.
-  out.pinch_copies = split_pinched_vertices(&out.mesh.indices, &count);
+  // Pinched vertices and edges (sheets that meet at a vertex only, or three
+  // or more faces on an edge): a copy per extra fan (surface/pinch_split.h).
+  out.pinch_copies = split_pinched_vertices(&out.mesh.indices, &count, pos);
   for (const auto& [copy, original] : out.pinch_copies) {
     for (int c = 0; c < 3; ++c) pos.push_back(pos[3 * size_t(original) + c]);
     for (size_t c = 0; c < k; ++c) out.value.push_back(out.value[k * original + c]);
