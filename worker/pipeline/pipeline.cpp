@@ -497,7 +497,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
                  (soup ? "; a polygon soup: the paper's back half follows" : "");
           if (!refined.pinch_copies.empty())
             note += "; " + std::to_string(refined.pinch_copies.size()) +
-                    " copies of vertices where fans of faces met only at them (sheets apart there)";
+                    " vertices copied where sheets met only at a vertex or at an edge of more than two faces (apart there)";
           return Status::Ok();
         },
         &note));
