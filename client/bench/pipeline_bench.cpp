@@ -188,8 +188,11 @@ int main(int argc, char** argv) {
   std::printf(" encode | total ms (median of %d) | min ms |\n|---|---|---|---|---|---|---|", args.repeat);
   for (size_t i = 0; i < std::size(kStages); ++i) std::printf("---|");
   std::printf("---|---|---|\n");
-  std::map<std::pair<std::string, std::string>, double> ours;  // (model, device) -> median total
-  for (const Input& in : inputs) {
+  // (input's place in the list, device) -> median total: one model may come
+  // at several targets, each its own row.
+  std::map<std::pair<size_t, std::string>, double> ours;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    const Input& in = inputs[i];
     for (vpr::DevicePolicy device : args.devices) {
       auto warm = run_job(in, device, renderer->get());
       if (!warm.ok()) {
@@ -213,7 +216,7 @@ int main(int argc, char** argv) {
       for (const char* s : kStages) std::printf(" %.1f |", m.stage.count(s) ? m.stage.at(s) : 0.0);
       std::printf(" %.1f | %.1f | %.1f |\n", m.encode, m.total, runs.front().total);
       std::fflush(stdout);
-      ours[{in.name, device_label(device)}] = m.total;
+      ours[{i, device_label(device)}] = m.total;
     }
   }
 
@@ -222,11 +225,12 @@ int main(int argc, char** argv) {
   if (args.peers != "none") {
     std::printf("\n| model | target | method | out V | ms | time / ours (%s) |\n|---|---|---|---|---|---|\n",
                 device_label(args.devices.back()));
-    for (const Input& in : inputs) {
-      const auto it = ours.find({in.name, device_label(args.devices.back())});
+    for (size_t i = 0; i < inputs.size(); ++i) {
+      const Input& in = inputs[i];
+      const auto it = ours.find({i, device_label(args.devices.back())});
       const double reference = it == ours.end() ? 0 : it->second;
       for (const auto& [key, ms] : ours)
-        if (key.first == in.name)
+        if (key.first == i)
           std::printf("| %s | %u | vpremesh (%s) | | %.1f | %.2f |\n", in.name.c_str(), in.target, key.second.c_str(),
                       ms, reference > 0 ? ms / reference : 0);
       for (const auto& peer : vpr::peers::all_peers()) {
