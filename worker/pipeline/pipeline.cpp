@@ -539,6 +539,13 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             PartFallbackStats fallback;
             VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, label, options.target_vertices, &result.mesh,
                                                      &cell, &fallback));
+            // A surface of scattered triangles that meet every which way (the
+            // pipeline fuzzer makes them) can leave the dual no face: the job
+            // fails with that, never returns an empty mesh as a result.
+            if (result.mesh.face_count() == 0)
+              return invalid_argument("the dual of the CVT cells has no face: the input is too broken a "
+                                      "surface (scattered or crossing triangles) to remesh to " +
+                                      std::to_string(options.target_vertices) + " vertices");
             // Each output vertex: its cell's mean importance (area-weighted).
             std::vector<double> sum(cells, 0.0), weight(cells, 0.0);
             const std::vector<double> area = vertex_areas(refined.mesh);
