@@ -108,28 +108,27 @@ TEST(PinchSplit, AVertexWhereFansJoinThroughAnotherVertexIsNotSplit) {
   EXPECT_EQ(count, 5u);
 }
 
-// Edges used by more than two faces, counted from the index buffer.
-size_t crowded_edges(const std::vector<uint32_t>& indices) {
+// How many faces use each edge, counted from the index buffer.
+std::map<std::pair<uint32_t, uint32_t>, int> edge_uses(const std::vector<uint32_t>& indices) {
   std::map<std::pair<uint32_t, uint32_t>, int> uses;
   for (size_t f = 0; f < indices.size() / 3; ++f)
     for (int k = 0; k < 3; ++k) {
       const uint32_t a = indices[3 * f + k], b = indices[3 * f + (k + 1) % 3];
       ++uses[{std::min(a, b), std::max(a, b)}];
     }
+  return uses;
+}
+
+// Edges used by more than two faces.
+size_t crowded_edges(const std::vector<uint32_t>& indices) {
   size_t n = 0;
-  for (const auto& [e, u] : uses) n += u > 2;
+  for (const auto& [e, u] : edge_uses(indices)) n += u > 2;
   return n;
 }
 
 // Closed pieces: every edge of each piece (faces joined by edges) in two faces.
 bool every_edge_in_two_faces(const std::vector<uint32_t>& indices) {
-  std::map<std::pair<uint32_t, uint32_t>, int> uses;
-  for (size_t f = 0; f < indices.size() / 3; ++f)
-    for (int k = 0; k < 3; ++k) {
-      const uint32_t a = indices[3 * f + k], b = indices[3 * f + (k + 1) % 3];
-      ++uses[{std::min(a, b), std::max(a, b)}];
-    }
-  for (const auto& [e, u] : uses)
+  for (const auto& [e, u] : edge_uses(indices))
     if (u != 2) return false;
   return true;
 }
