@@ -175,6 +175,27 @@ TEST_F(VisualSimilarityTest, OneCallMatchesTheReferenceObject) {
   EXPECT_LT(once->ssim_mean, 1.0);
 }
 
+TEST_F(VisualSimilarityTest, WithoutLineDrawingsTheShadedScoresAreTheSame) {
+  const Mesh a = testing::icosphere(4), b = testing::icosphere(2);
+  VisualSimilarityOptions shaded_only = small();
+  shaded_only.line_drawings = false;
+  auto full = VisualReference::create(a, renderer_, small());
+  auto fast = VisualReference::create(a, renderer_, shaded_only);
+  ASSERT_TRUE(full.ok() && fast.ok());
+  auto with_lines = full->compare(b);
+  auto without = fast->compare(b);
+  ASSERT_TRUE(with_lines.ok() && without.ok());
+  ASSERT_LT(with_lines->ssim_mean, 1.0);
+  EXPECT_EQ(without->ssim_mean, with_lines->ssim_mean);
+  EXPECT_EQ(without->ssim_worst, with_lines->ssim_worst);
+  EXPECT_EQ(without->ssim_worst_view, with_lines->ssim_worst_view);
+  EXPECT_TRUE(std::isfinite(with_lines->line_mean));
+  EXPECT_TRUE(std::isnan(without->line_mean));  // not computed, and not mistaken for a score
+  EXPECT_TRUE(std::isnan(without->line_worst));
+  ASSERT_EQ(without->per_view.size(), with_lines->per_view.size());
+  EXPECT_TRUE(std::isnan(without->per_view[0].line_ssim));
+}
+
 TEST_F(VisualSimilarityTest, RejectsInvalidMeshes) {
   auto ref = VisualReference::create(testing::icosphere(2), renderer_, small());
   ASSERT_TRUE(ref.ok());

@@ -193,6 +193,7 @@ StatusOr<VisualReference> VisualReference::create(const Mesh& reference, Rendere
   if (Status s = renderer->render(reference, r.views_, &r.snapshots_); !s.ok()) return s;
   for (const Snapshot& snap : r.snapshots_) {
     r.gray_.push_back(to_float(snap.gray));
+    if (!options.line_drawings) continue;
     auto lines = line_drawing(snap, options.features, options.line_blur_sigma);
     if (!lines.ok()) return lines.status();
     r.lines_.push_back(std::move(*lines));
@@ -216,22 +217,27 @@ StatusOr<VisualSimilarity> VisualReference::compare(const Mesh& given_candidate)
     const Mask* use = options_.surface_windows_only ? &centres : nullptr;
     auto gray = ssim(gray_[v], to_float(snaps[v].gray), options_.ssim, use);
     if (!gray.ok()) return gray.status();
-    auto lines = line_drawing(snaps[v], options_.features, options_.line_blur_sigma);
-    if (!lines.ok()) return lines.status();
-    auto line = ssim(lines_[v], *lines, options_.ssim, use);
-    if (!line.ok()) return line.status();
-    out.per_view.push_back({views_[v].name, *gray, *line});
+    double line = std::numeric_limits<double>::quiet_NaN();
+    if (options_.line_drawings) {
+      auto lines = line_drawing(snaps[v], options_.features, options_.line_blur_sigma);
+      if (!lines.ok()) return lines.status();
+      auto scored = ssim(lines_[v], *lines, options_.ssim, use);
+      if (!scored.ok()) return scored.status();
+      line = *scored;
+    }
+    out.per_view.push_back({views_[v].name, *gray, line});
     out.ssim_mean += *gray / double(views_.size());
-    out.line_mean += *line / double(views_.size());
+    out.line_mean += line / double(views_.size());
     if (*gray < out.ssim_worst) {
       out.ssim_worst = *gray;
       out.ssim_worst_view = views_[v].name;
     }
-    if (*line < out.line_worst) {
-      out.line_worst = *line;
+    if (line < out.line_worst) {
+      out.line_worst = line;
       out.line_worst_view = views_[v].name;
     }
   }
+  if (!options_.line_drawings) out.line_worst = std::numeric_limits<double>::quiet_NaN();
   return out;
 }
 

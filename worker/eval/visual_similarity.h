@@ -51,6 +51,11 @@ struct VisualSimilarityOptions {
   // background is black in both renderings, and its windows (half or more of
   // each image) would pull every score towards 1.
   bool surface_windows_only = true;
+  // Also score the blurred line drawings (line_ssim). Each view's drawing
+  // runs the feature detection and a blur, more than half of a comparison's
+  // time; a caller that reads only the shaded SSIM (the visual target's
+  // search) turns it off, and the line scores are NaN.
+  bool line_drawings = true;
 };
 
 struct ViewSimilarity {

@@ -667,6 +667,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   VisualSimilarityOptions judge;
   judge.views = options.views.count;
   judge.resolution = target.screen_px > 0 ? int(target.screen_px) : options.views.resolution;
+  judge.line_drawings = false;  // the bound is on the shaded SSIM alone
   VPR_ASSIGN_OR_RETURN(const VisualReference reference, VisualReference::create(front.input, front.renderer, judge));
   VisualTargetOptions search;
   search.min_ssim = min_ssim;
