@@ -32,11 +32,18 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
   // trying from below and stepping up by the model spends least.
   uint32_t next = o.first > 0 ? o.first : std::max(o.lowest, o.highest / 64);
   int stalled = 0;  // tries since the bracket last halved in log width
+  // The last try was a step of less than 2 up from a failure, by a model
+  // fitted to two tries near the bound; once such a step fails, the scores
+  // there are noise to the model, and steps are 2 or more again.
+  bool short_step = false;
+  bool short_step_failed = false;
   double width = std::log(double(o.highest)) - std::log(double(o.lowest)) + 1.0;
   while (int(out.tries.size()) < o.max_tries) {
     next = std::clamp(next, o.lowest, o.highest);
     VPR_ASSIGN_OR_RETURN(const double s, score(next));
     out.tries.push_back({next, s});
+    if (short_step && s < o.min_ssim) short_step_failed = true;
+    short_step = false;
     if (s >= o.min_ssim) {
       if (passed == 0 || next < passed) passed = next, passed_ssim = s;
     } else if (next > failed) {
@@ -69,7 +76,15 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     // 1 - SSIM ~ 1/n, steeper than surfaces give (about n^-1/2 for a
     // surface's error), so that the next try falls short rather than past
     // the answer, where tries cost more.
-    const double rate = b && slope < -1e-3 ? slope : -1.0;
+    double rate = b && slope < -1e-3 ? slope : -1.0;
+    // Below the bound with no pass yet, a line through a try far from it (an
+    // error over twice the goal's) is a chord of a curve that steepens
+    // towards the bound (measured: about n^-0.65 from a few hundred vertices
+    // to 0.94, n^-1 near 0.97), and its step overshoots by a third to
+    // four-fifths, the costliest try of the search. Such a step takes the
+    // 1/n model's instead, at most as long.
+    const bool far = b && std::max(error_of(a.ssim), error_of(b->ssim)) > goal + std::log(2.0);
+    if (passed == 0 && far) rate = std::min(rate, -1.0);
     // The model holds while the tries agree with it: a larger count never
     // scored lower. Once two tries disagree, the scores near the bound are
     // noise and a line through any two of them creeps; bisect instead.
@@ -84,7 +99,21 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     // two-sided: the bracket's middle when the model points outside it, has
     // not halved it in two tries, or does not hold.
     if (failed == 0) log_next = std::clamp(log_next, hi - std::log(16.0), hi - std::log(2.0));
-    if (passed == 0) log_next = std::clamp(log_next, lo + std::log(2.0), lo + std::log(16.0));
+    // One-sided from below: at least a factor 2 past the highest failure (a
+    // model fitted to noise creeps), unless a line through two tries puts
+    // the nearer one near the bound (an error within twice the goal's), the
+    // tries agree with it, and no short step of a line through two near
+    // tries has failed yet: then as short as the tolerance, and where the
+    // model points within it, the largest count that ends the search if it
+    // passes.
+    const bool trust_short = b && error_of(a.ssim) <= goal + std::log(2.0) && model_holds && !short_step_failed;
+    const double shortest = trust_short ? std::log1p(o.tolerance) : std::log(2.0);
+    bool open_below = false;  // try the largest count that ends the search if it passes
+    if (passed == 0) {  // then failed > 0: every try failed
+      open_below = trust_short && log_next <= lo + shortest + 1e-9;
+      log_next = std::clamp(log_next, lo + shortest, lo + std::log(16.0));
+      short_step = b && !far && log_next < lo + std::log(2.0) - 1e-9;
+    }
     // Close from above: the largest count that would end the search if it fails.
     const double closing = hi - std::log1p(o.tolerance) + 1e-9;
     if (passed > 0 && log_next >= closing) log_next = closing;
@@ -103,7 +132,8 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     }
     uint32_t n = uint32_t(std::lround(std::exp(log_next)));
     if (passed > 0 && log_next >= closing - 1e-6) n = uint32_t(std::ceil(double(passed) / (1.0 + o.tolerance)));
-    if (close_from_below && log_next <= opening) n = uint32_t(std::floor(double(failed) * (1.0 + o.tolerance)));
+    if ((close_from_below && log_next <= opening) || open_below)
+      n = uint32_t(std::floor(double(failed) * (1.0 + o.tolerance)));
     // Strictly inside the bracket.
     if (failed > 0 && n <= failed) n = failed + 1;
     if (passed > 0 && n >= passed) n = passed - 1;
