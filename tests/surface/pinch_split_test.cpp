@@ -182,6 +182,59 @@ TEST(PinchSplit, ADoubleSidedSheetStaysJoined) {
   EXPECT_EQ(indices, before);
 }
 
+TEST(PinchSplit, TwoCubesSharingAFaceComeApartAsTwoClosedCubes) {
+  // Cubes [0,1]^3 and [1,2] x [0,1] x [0,1], welded: their walls on x = 1 lie
+  // on top of each other, drawn both ways round, and the wall's edges are in
+  // four faces. The sector of no width between the two walls is outside
+  // both: each cube keeps its own wall and comes back closed.
+  std::vector<uint32_t> indices;
+  std::vector<double> positions;
+  add_cube(&indices, &positions, 0, 0);
+  add_cube(&indices, &positions, 1, 0);
+  weld(&indices, positions);
+  size_t count = positions.size() / 3;
+  ASSERT_EQ(crowded_edges(indices), 5u);  // the wall's four sides and its diagonal
+  const auto copies = split_pinched_vertices(&indices, &count, positions);
+  EXPECT_EQ(copies.size(), 4u);  // the wall's corners
+  EXPECT_EQ(crowded_edges(indices), 0u);
+  EXPECT_TRUE(every_edge_in_two_faces(indices));
+  EXPECT_EQ(most_fans(indices, count), 1u);
+  const std::vector<uint32_t> first(indices.begin(), indices.begin() + 36);  // the first cube's faces
+  EXPECT_TRUE(every_edge_in_two_faces(first));
+}
+
+TEST(PinchSplit, ADoubleSidedCardBecomesAClosedPillow) {
+  // A 3 x 3 grid of vertices drawn both ways round: at its middle vertex the
+  // front's faces and the back's meet only across edges of four faces. The
+  // front and the back come apart there (one copy) and stay joined along the
+  // rim: one closed sheet of no thickness. (Only vertices are split: an edge
+  // of four faces between two rim vertices, a quad's diagonal, stays so.)
+  std::vector<double> positions;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) positions.insert(positions.end(), {double(i), double(j), 0.0});
+  std::vector<uint32_t> indices;
+  for (uint32_t j = 0; j < 2; ++j)
+    for (uint32_t i = 0; i < 2; ++i) {
+      const uint32_t a = 3 * j + i, b = a + 1, c = a + 4, d = a + 3;
+      indices.insert(indices.end(), {a, b, c, a, c, d});  // front
+      indices.insert(indices.end(), {a, c, b, a, d, c});  // back
+    }
+  size_t count = 9;
+  const auto copies = split_pinched_vertices(&indices, &count, positions);
+  ASSERT_EQ(copies.size(), 1u);
+  EXPECT_EQ(copies[0].second, 4u);  // the middle vertex
+  for (size_t f = 0; f < indices.size() / 3; ++f) {
+    const bool front = f % 4 < 2;  // faces in fours per quad: two front, two back
+    for (int k = 0; k < 3; ++k) {
+      if (front) EXPECT_NE(indices[3 * f + k], 9u) << "front face " << f;
+      if (!front) EXPECT_NE(indices[3 * f + k], 4u) << "back face " << f;  // the back has the copy
+    }
+  }
+  for (const auto& [e, uses] : edge_uses(indices))
+    if (e.first == 4 || e.second == 4 || e.first == 9 || e.second == 9) EXPECT_EQ(uses, 2) << e.first << "-" << e.second;
+  EXPECT_EQ(crowded_edges(indices), 2u);  // the diagonals 1-5 and 3-7, between rim vertices
+}
+
 TEST(PinchSplit, AFinOnACubeLeavesTheCubeClosed) {
   // A triangle standing on the cube's top edge y = 0, z = 1 (three faces on
   // that edge): the cube's two faces there are one sheet, the fin its own.

@@ -549,6 +549,28 @@ TEST(SurfaceCvtTest, LegsWeldedToATableAtOneVertexComeBackClosed) {
   }
 }
 
+TEST(SurfaceCvtTest, TwoBoxesSharingAFaceComeBackAsTwoClosedBoxesAtTheCount) {
+  // Boxes side by side, each with its own wall on x = 0 (after the weld the
+  // two walls lie on top of each other, drawn both ways round: a double-sided
+  // wall inside one box, as modelled assets have). Every edge of the wall is
+  // in four faces. Joined there as one fan, the cells ran across the wall and
+  // the dual lost or gained vertices: 128 for 100, 1,385 for 2,000.
+  Mesh boxes;
+  for (double x : {-0.5, 0.5}) {
+    Mesh b = box(1, 1, 1, 16);
+    const uint32_t base = uint32_t(boxes.vertex_count());
+    for (size_t i = 0; i < b.positions.size(); ++i) boxes.positions.push_back(b.positions[i] + (i % 3 == 0 ? float(x) : 0.0f));
+    for (uint32_t v : b.indices) boxes.indices.push_back(base + v);
+  }
+  for (uint32_t target : {100u, 2000u}) {
+    const Mesh out = remesh(boxes, target, DensityMode::kCurvature);
+    EXPECT_NEAR(double(out.vertex_count()), double(target), 0.02 * target) << target;
+    EXPECT_EQ(count(out).boundary_edges, 0u) << target;
+    EXPECT_EQ(count(out).non_manifold_edges, 0u) << target;
+    EXPECT_EQ(pieces(out), 2u) << target;  // one closed box each side of the wall
+  }
+}
+
 TEST(SurfaceCvtTest, SmallPartsAreKept) {
   // Three closed boxes of sizes 1, 0.1 and 0.05: each gets vertices and stays closed.
   Mesh m;

@@ -69,14 +69,28 @@ std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<ui
     }
     std::sort(round.begin(), round.end());  // by angle, ties by slot: one order
     // Two faces on top of each other (a double-sided sheet: the same
-    // triangles both ways round) leave no sector between them to tell the
-    // inside by; such an edge stays joined as it was (all its faces one fan).
-    for (size_t j = 0; j < k; ++j) {
-      const double gap = j + 1 < k ? round[j + 1].first - round[j].first : round[0].first + kTwoPi - round[j].first;
-      if (!(gap > 1e-9)) {
+    // triangles both ways round) leave a sector of no width between them,
+    // which no solid's inside can be: the one whose normal points into it
+    // from below (towards increasing angle) goes first, so that both
+    // normals face that sector and it counts as outside. A double-sided
+    // wall inside a box then bounds the solid on each side with one of its
+    // two sheets (two closed boxes, as a modeller meant), and a double-sided
+    // fin comes off the face it stands on. Any other tie (more than two
+    // faces, or two the same way round) stays joined as it was (all the
+    // edge's faces one fan).
+    for (size_t j = 0; j < k;) {
+      size_t e = j + 1;
+      while (e < k && !(round[e].first - round[e - 1].first > 1e-9)) ++e;
+      if (e - j > 2 || (e - j == 2 && forward[round[j].second] == forward[round[j + 1].second])) {
         coincident = true;
         return;
       }
+      if (e - j == 2 && !forward[round[j].second]) std::swap(round[j], round[j + 1]);
+      j = e;
+    }
+    if (!(round[0].first + kTwoPi - round[k - 1].first > 1e-9)) {  // a tie across the cut at pi
+      coincident = true;
+      return;
     }
     for (size_t j = 0; j < k; ++j) {
       const uint32_t s = round[j].second, t = round[(j + 1) % k].second;
