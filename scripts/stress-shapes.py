@@ -233,12 +233,18 @@ def shapes():
     finf = [(z * 21 + x, z * 21 + x + 1, (z + 1) * 21 + x + 1) for z in range(6) for x in range(20)]
     finf += [(z * 21 + x, (z + 1) * 21 + x + 1, (z + 1) * 21 + x) for z in range(6) for x in range(20)]
     yield "fin-on-a-box", concat((b, bf), (np.array(fin), np.array(finf)))
+    # Two boxes side by side, each with its own wall where they touch: after
+    # the weld a double-sided wall inside one box (every wall edge in four
+    # faces, two lying on top of two), and a double-sided card on its own.
+    yield "boxes-sharing-a-face", concat((b, bf), (b + [1, 0, 0], bf))
+    card, cardf = plane(40)
+    yield "double-sided-card", (card, np.concatenate([cardf, cardf[:, ::-1]]))
 
 
 # What a shape's output should have where the input's own count is not it:
 # an edge of more than two faces joins sheets that no 2-manifold can keep
 # joined, so they come apart there (surface/pinch_split.h).
-EXPECTED_SHEETS = {"boxes-sharing-an-edge": 2, "fin-on-a-box": 2}
+EXPECTED_SHEETS = {"boxes-sharing-an-edge": 2, "fin-on-a-box": 2, "boxes-sharing-a-face": 2}
 
 
 def write_obj(path, v, f):
