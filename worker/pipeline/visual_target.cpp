@@ -32,17 +32,16 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
   // trying from below and stepping up by the model spends least.
   uint32_t next = o.first > 0 ? o.first : std::max(o.lowest, o.highest / 64);
   int stalled = 0;  // tries since the bracket last halved in log width
-  // The last try was a step of less than 2 up from a failure, by a model
-  // fitted to two tries near the bound; once such a step fails, the scores
-  // there are noise to the model, and steps are 2 or more again.
+  // Steps of less than 2 up from a failure near the bound (see below), and
+  // how many of them failed: each failure doubles the next such step.
   bool short_step = false;
-  bool short_step_failed = false;
+  int short_steps_failed = 0;
   double width = std::log(double(o.highest)) - std::log(double(o.lowest)) + 1.0;
   while (int(out.tries.size()) < o.max_tries) {
     next = std::clamp(next, o.lowest, o.highest);
     VPR_ASSIGN_OR_RETURN(const double s, score(next));
     out.tries.push_back({next, s});
-    if (short_step && s < o.min_ssim) short_step_failed = true;
+    if (short_step && s < o.min_ssim) ++short_steps_failed;
     short_step = false;
     if (s >= o.min_ssim) {
       if (passed == 0 || next < passed) passed = next, passed_ssim = s;
@@ -72,11 +71,12 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     for (size_t i = 1; i < near.size() && !b; ++i)
       if (near[i].count != a.count) b = &near[i];
     const double slope = b ? (error_of(b->ssim) - error_of(a.ssim)) / (std::log(b->count) - std::log(a.count)) : 0;
-    // One try, or a score that does not fall with the count here: assume
-    // 1 - SSIM ~ 1/n, steeper than surfaces give (about n^-1/2 for a
-    // surface's error), so that the next try falls short rather than past
-    // the answer, where tries cost more.
-    double rate = b && slope < -1e-3 ? slope : -1.0;
+    // One try, or a score that falls slower than n^-1/4 here (no surface's
+    // does: its error falls about as n^-1/2; a flatter line is two noisy
+    // scores, and its step would go to the range's end): assume
+    // 1 - SSIM ~ 1/n, so that the next try falls short rather than past the
+    // answer, where tries cost more.
+    double rate = b && slope < -0.25 ? slope : -1.0;
     // Below the bound with no pass yet, a line through a try far from it (an
     // error over twice the goal's) is a chord of a curve that steepens
     // towards the bound (measured: about n^-0.65 from a few hundred vertices
@@ -85,34 +85,32 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     // 1/n model's instead, at most as long.
     const bool far = b && std::max(error_of(a.ssim), error_of(b->ssim)) > goal + std::log(2.0);
     if (passed == 0 && far) rate = std::min(rate, -1.0);
-    // The model holds while the tries agree with it: a larger count never
-    // scored lower. Once two tries disagree, the scores near the bound are
-    // noise and a line through any two of them creeps; bisect instead.
-    bool model_holds = true;
-    for (const VisualTry& p : out.tries)
-      for (const VisualTry& q : out.tries)
-        if (p.count < q.count && p.ssim > q.ssim) model_holds = false;
     // Aim a little past the predicted count, so that the try near the answer
     // passes and one more just inside the tolerance below it can close.
     double log_next = std::log(a.count) + (goal - error_of(a.ssim)) / rate + 0.5 * o.tolerance;
     // One-sided: at least a factor 2 and at most 16 past the known end;
-    // two-sided: the bracket's middle when the model points outside it, has
-    // not halved it in two tries, or does not hold.
+    // two-sided: the bracket's middle when the model points outside it or
+    // has not halved it in two tries. (Bisecting as soon as two tries
+    // disagree, a larger count scoring lower, cost most where the bracket's
+    // low end was a try far below the bound: on five measured curves,
+    // replayed, 5.1 back halves a search on the mean against 4.8 without.)
     if (failed == 0) log_next = std::clamp(log_next, hi - std::log(16.0), hi - std::log(2.0));
-    // One-sided from below: at least a factor 2 past the highest failure (a
-    // model fitted to noise creeps), unless a line through two tries puts
-    // the nearer one near the bound (an error within twice the goal's), the
-    // tries agree with it, and no short step of a line through two near
-    // tries has failed yet: then as short as the tolerance, and where the
-    // model points within it, the largest count that ends the search if it
-    // passes.
-    const bool trust_short = b && error_of(a.ssim) <= goal + std::log(2.0) && model_holds && !short_step_failed;
-    const double shortest = trust_short ? std::log1p(o.tolerance) : std::log(2.0);
+    // One-sided from below: at least a factor 2 past the highest failure,
+    // unless the try nearest the bound lies near it (an error within twice
+    // the goal's, and a second try to fit a line through): then the step
+    // may be as short as the tolerance, doubled (in log) after each such
+    // step that failed, so that noise near the bound cannot make it creep;
+    // and the first time, where the model points within the tolerance, the
+    // largest count that ends the search if it passes.
+    const bool trust_short = b && error_of(a.ssim) <= goal + std::log(2.0);
+    const double shortest =
+        trust_short ? std::min(std::log1p(o.tolerance) * std::ldexp(1.0, short_steps_failed), std::log(2.0))
+                    : std::log(2.0);
     bool open_below = false;  // try the largest count that ends the search if it passes
     if (passed == 0) {  // then failed > 0: every try failed
-      open_below = trust_short && log_next <= lo + shortest + 1e-9;
+      open_below = trust_short && short_steps_failed == 0 && log_next <= lo + shortest + 1e-9;
       log_next = std::clamp(log_next, lo + shortest, lo + std::log(16.0));
-      short_step = b && !far && log_next < lo + std::log(2.0) - 1e-9;
+      short_step = trust_short && log_next < lo + std::log(2.0) - 1e-9;
     }
     // Close from above: the largest count that would end the search if it fails.
     const double closing = hi - std::log1p(o.tolerance) + 1e-9;
@@ -126,7 +124,7 @@ StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& o,
     const double opening = lo + std::log1p(o.tolerance) - 1e-9;
     const bool close_from_below = passed > 0 && failed > 0 && out.tries.back().ssim < o.min_ssim &&
                                   log_next > lo && log_next <= opening;
-    if (passed > 0 && failed > 0 && (stalled >= 2 || log_next <= lo || !model_holds)) {
+    if (passed > 0 && failed > 0 && (stalled >= 2 || log_next <= lo)) {
       log_next = 0.5 * (lo + hi);
       stalled = 0;
     }

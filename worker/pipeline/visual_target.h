@@ -8,12 +8,13 @@
 // it. Measured curves steepen towards the bound (about n^-0.65 from a few
 // hundred vertices, n^-1 near 0.97: scripts/visual-curve.py), so a line
 // through a try far below the bound steps as 1/n would at most, and from a
-// failure near the bound the step may be as short as the tolerance. Once a
-// count passes, the next try is the largest that would close the bracket
-// within the tolerance (2%) if it fails. Tries stay strictly inside
-// the bracket; it bisects when the bracket has not halved in two tries or once
-// a larger count has scored lower than a smaller one (near the bound the
-// score is noisy, and a model fitted to noise creeps).
+// failure near the bound the step may be as short as the tolerance, doubling
+// after each such step that fails (near the bound the score is noisy: SSIM
+// moves by about 0.001 between counts 1% apart). Once a count passes, the
+// next try is the largest that would close the bracket within the tolerance
+// (2%) if it fails. Tries stay strictly inside the bracket; it bisects when
+// the bracket has not halved in two tries. vpremesh-visual-replay replays the
+// search on measured curves (client/bench/visual_search_replay.cpp).
 #pragma once
 
 #include <cstdint>
