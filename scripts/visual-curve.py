@@ -3,7 +3,7 @@
 
     scripts/visual-curve.py MODEL [--near N] [--bin build/release/client/vpremesh] [--flags "--threads 2"]
 
-Counts: 100 x 1.2^k up to the input's vertex count, and, with --near N, every
+Counts: 100 x 1.2^k up to the input's vertex count and that count, and, with --near N, every
 1% from 0.85 N to 1.15 N (where the bound is crossed, the score's noise
 between close counts is what a search meets). The levels run as chains of at
 most 16 (`vpremesh local --lod`, the front half shared: each level is the
@@ -49,6 +49,7 @@ def main():
     if a.near:
         for i in range(-15, 16):
             counts.add(int(round(a.near * (1 + 0.01 * i))))
+    counts.add(top)  # the search's top: a visual target never asks for more than the input has
     counts = sorted(n for n in counts if 100 <= n <= top)
     with tempfile.TemporaryDirectory() as work:
         for start in range(0, len(counts), 16):

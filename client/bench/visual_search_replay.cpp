@@ -2,7 +2,7 @@
 // measured curves, so that a change to the search can be judged on real
 // scores without running a back half per try.
 //
-//   vpremesh-visual-replay [--min-ssim 0.97] [--tolerance 0.02] CURVE...
+//   vpremesh-visual-replay [--min-ssim 0.97] [--tolerance 0.02] [--highest N] [--jitter K] CURVE...
 //
 // CURVE: lines "count ssim seconds" (scripts/visual-curve.py), one model. A
 // try at a count between two measured ones takes the nearer one's score
@@ -11,7 +11,12 @@
 // the tries, the count chosen, the smallest measured count that passes with
 // every larger measured count within 4% above it passing too (the sweep's
 // answer), and the search's cost in back halves at the chosen count.
+// --highest: the search's top (the input's vertex count), when the curve's
+// largest count is not it. --jitter K: K searches with tops spread over 0.9
+// to 1.1 times it, summarized (mean and most cost and tries, the range of
+// chosen / answer, how many land within 2% of the answer).
 #include <algorithm>
+#include <numeric>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -65,9 +70,15 @@ double seconds_at(const std::vector<Point>& curve, uint32_t n) {
 int main(int argc, char** argv) {
   vpr::VisualTargetOptions o;
   std::vector<const char*> paths;
+  uint32_t highest = 0;
+  int jitter = 0;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--min-ssim") && i + 1 < argc) {
       o.min_ssim = std::atof(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--jitter") && i + 1 < argc) {
+      jitter = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--highest") && i + 1 < argc) {
+      highest = uint32_t(std::atol(argv[++i]));
     } else if (!std::strcmp(argv[i], "--tolerance") && i + 1 < argc) {
       o.tolerance = std::atof(argv[++i]);
     } else {
@@ -75,26 +86,20 @@ int main(int argc, char** argv) {
     }
   }
   if (paths.empty()) {
-    std::fprintf(stderr, "usage: vpremesh-visual-replay [--min-ssim S] [--tolerance T] CURVE...\n");
+    std::fprintf(stderr, "usage: vpremesh-visual-replay [--min-ssim S] [--tolerance T] [--highest N] [--jitter K] CURVE...\n");
     return 2;
   }
-  std::printf("| curve | tries | chosen | sweep's answer | chosen / answer | cost (back halves at the chosen count) |\n");
-  std::printf("|---|---|---:|---:|---:|---:|\n");
+  if (jitter > 1) {
+    std::printf("| curve | sweep's answer | mean cost | most cost | mean tries | most tries | chosen / answer | within 2%% |\n");
+    std::printf("|---|---:|---:|---:|---:|---:|---|---:|\n");
+  } else {
+    std::printf("| curve | tries | chosen | sweep's answer | chosen / answer | cost (back halves at the chosen count) |\n");
+    std::printf("|---|---|---:|---:|---:|---:|\n");
+  }
   for (const char* path : paths) {
     const std::vector<Point> curve = read_curve(path);
     if (curve.size() < 2) {
       std::fprintf(stderr, "%s: fewer than two points\n", path);
-      return 1;
-    }
-    o.lowest = 100;
-    o.highest = curve.back().count;
-    double cost = 0;
-    auto found = vpr::search_visual_target(o, [&](uint32_t n) -> vpr::StatusOr<double> {
-      cost += seconds_at(curve, n);
-      return nearest(curve, n).ssim;
-    });
-    if (!found.ok()) {
-      std::fprintf(stderr, "%s: %s\n", path, found.status().to_string().c_str());
       return 1;
     }
     // The sweep's answer: the smallest measured count passing, with every
@@ -108,15 +113,47 @@ int main(int argc, char** argv) {
         holds &= curve[j].ssim >= o.min_ssim;
       if (holds) answer = curve[i].count;
     }
-    std::string tries;
-    for (const vpr::VisualTry& t : found->tries) {
-      char buf[48];
-      std::snprintf(buf, sizeof buf, "%s%u (%.4f)", tries.empty() ? "" : ", ", t.count, t.ssim);
-      tries += buf;
+    const uint32_t top = highest ? highest : curve.back().count;
+    // One search per top: the given one, or with --jitter K, K tops spread
+    // evenly over 0.9 to 1.1 times it (each top moves every try to other
+    // counts, so each run meets the measured noise at other places).
+    std::vector<double> costs, ratios;
+    std::vector<size_t> tries_run;
+    for (int k = 0; k < std::max(1, jitter); ++k) {
+      o.lowest = 100;
+      const double scale = jitter > 1 ? 0.9 + 0.2 * k / (jitter - 1) : 1.0;
+      o.highest = uint32_t(std::lround(top * scale));
+      double cost = 0;
+      auto found = vpr::search_visual_target(o, [&](uint32_t n) -> vpr::StatusOr<double> {
+        cost += seconds_at(curve, n);
+        return nearest(curve, n).ssim;
+      });
+      if (!found.ok()) {
+        std::fprintf(stderr, "%s: %s\n", path, found.status().to_string().c_str());
+        return 1;
+      }
+      costs.push_back(cost / seconds_at(curve, found->count));
+      ratios.push_back(answer ? double(found->count) / answer : 0.0);
+      tries_run.push_back(found->tries.size());
+      if (jitter > 1) continue;
+      std::string tries;
+      for (const vpr::VisualTry& t : found->tries) {
+        char buf[48];
+        std::snprintf(buf, sizeof buf, "%s%u (%.4f)", tries.empty() ? "" : ", ", t.count, t.ssim);
+        tries += buf;
+      }
+      std::printf("| %s | %s | %u | %u | %.3f | %.2f |\n", path, tries.c_str(), found->count, answer, ratios[0],
+                  costs[0]);
     }
-    const double one = seconds_at(curve, found->count);
-    std::printf("| %s | %s | %u | %u | %.3f | %.2f |\n", path, tries.c_str(), found->count, answer,
-                answer ? double(found->count) / answer : 0.0, cost / one);
+    if (jitter <= 1) continue;
+    auto mean = [](const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0) / v.size(); };
+    size_t within = 0;
+    for (double r : ratios) within += r >= 0.98 && r <= 1.02;
+    std::printf("| %s | %u | %.2f | %.2f | %.1f | %zu | %.3f to %.3f | %zu of %d |\n", path, answer, mean(costs),
+                *std::max_element(costs.begin(), costs.end()),
+                std::accumulate(tries_run.begin(), tries_run.end(), 0.0) / tries_run.size(),
+                *std::max_element(tries_run.begin(), tries_run.end()), *std::min_element(ratios.begin(), ratios.end()),
+                *std::max_element(ratios.begin(), ratios.end()), within, jitter);
   }
   return 0;
 }
