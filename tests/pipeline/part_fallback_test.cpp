@@ -1,10 +1,12 @@
-// The part fallback: a closed part whose dual came out broken is replaced by
-// a decimation that is closed, one piece and of the input's genus; a part
-// whose dual is whole is left bit for bit.
+// The part fallback: a part whose dual came out broken is replaced by a
+// decimation that is whole (closed or with the part's boundary loops, one
+// piece, the input's Euler characteristic); a part whose dual is whole is
+// left bit for bit.
 #include "pipeline/part_fallback.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <utility>
@@ -85,6 +87,80 @@ TEST(PartFallback, ABrokenDualIsReplacedByAClosedTorusOfTheSameCount) {
     const double ring = std::hypot(x, y) - 1.0;
     EXPECT_NEAR(std::hypot(ring, z), 0.3, 0.3 * 0.1);
   }
+}
+
+// A curved open square, n x n quads: one boundary loop, Euler characteristic 1.
+Mesh open_square(int n) {
+  Mesh m;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      const double x = double(i) / n, y = double(j) / n;
+      m.positions.insert(m.positions.end(), {float(x), float(y), float(0.1 * std::sin(3 * x) * std::cos(2 * y))});
+    }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const uint32_t a = uint32_t(j * (n + 1) + i), b = a + 1, c = a + uint32_t(n) + 2, d = a + uint32_t(n) + 1;
+      m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
+    }
+  return m;
+}
+
+// Boundary edges (in one face) and V - E + F.
+std::pair<size_t, long> border_and_euler(const Mesh& m) {
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (size_t f = 0; f < m.face_count(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = m.indices[3 * f + k], b = m.indices[3 * f + (k + 1) % 3];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  size_t border = 0;
+  for (const auto& [e, n] : uses) border += n == 1;
+  return {border, long(m.vertex_count()) - long(uses.size()) + long(m.face_count())};
+}
+
+Dual dual_of(const Mesh& surface, uint32_t count) {
+  Dual d;
+  d.surface = surface;
+  d.edges = mesh_edges(d.surface);
+  CvtStats stats;
+  EXPECT_TRUE(surface_cvt(d.surface, d.edges, vertex_areas(d.surface), count, {}, &d.label, &stats).ok());
+  d.cells = stats.clusters;
+  ClusterMeshStats mesh_stats;
+  EXPECT_TRUE(mesh_clusters(d.surface, d.edges, d.label, d.cells, &d.out, &d.cell, &mesh_stats).ok());
+  return d;
+}
+
+TEST(PartFallback, AWholeOpenDualIsLeftAsItIs) {
+  Dual d = dual_of(open_square(40), 200);
+  ASSERT_GT(border_and_euler(d.out).first, 0u);
+  ASSERT_EQ(border_and_euler(d.out).second, 1L);
+  const Mesh before = d.out;
+  PartFallbackStats stats;
+  ASSERT_TRUE(replace_broken_parts(d.surface, d.edges, d.label, 200, &d.out, &d.cell, &stats).ok());
+  EXPECT_EQ(stats.open_parts, 1u);
+  EXPECT_EQ(stats.parts_replaced, 0u);
+  EXPECT_EQ(d.out.indices, before.indices);
+}
+
+TEST(PartFallback, AnOpenPartWhoseDualIsGoneComesBackWithItsLoop) {
+  // A small open part's few cells can leave no dual triangle (a fin on a box
+  // at 100 vertices had four): the part, and its boundary loop, would be
+  // lost. Here the whole dual is taken away.
+  Dual d = dual_of(open_square(40), 50);
+  d.out.indices.clear();
+  PartFallbackStats stats;
+  ASSERT_TRUE(replace_broken_parts(d.surface, d.edges, d.label, 50, &d.out, &d.cell, &stats).ok());
+  EXPECT_EQ(stats.parts_replaced, 1u);
+  ASSERT_GT(d.out.face_count(), 0u);
+  const auto [border, euler] = border_and_euler(d.out);
+  EXPECT_GT(border, 0u);
+  EXPECT_EQ(euler, 1L);  // a disk again: one loop, no handle
+  EXPECT_NEAR(double(d.out.vertex_count()), 50.0, 2.0);  // the part's share, every vertex in a face
+  std::vector<char> in_face(d.out.vertex_count(), 0);
+  for (uint32_t i : d.out.indices) in_face[i] = 1;
+  EXPECT_EQ(std::count(in_face.begin(), in_face.end(), 1), long(d.out.vertex_count()));
+  ASSERT_EQ(d.cell.size(), d.out.vertex_count());
+  for (uint32_t c : d.cell) EXPECT_LT(c, d.cells);
 }
 
 TEST(PartFallback, RefusesMismatchedInputs) {

@@ -14,12 +14,15 @@
 namespace vpr {
 namespace {
 
-// Topology of a set of triangles: closed (every edge in two faces, once each
-// way), one piece, every vertex one fan, and its Euler characteristic.
+// Topology of a set of triangles: a manifold (every directed edge once,
+// every vertex one fan), closed (every edge in two faces, once each way),
+// one piece, its Euler characteristic and its boundary loops.
 struct Shape {
+  bool manifold = false;
   bool closed_manifold = false;
   bool one_piece = false;
   int64_t euler = 0;
+  size_t loops = 0;
 };
 
 Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces) {
@@ -36,8 +39,9 @@ Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces) {
     for (int k = 0; k < 3; ++k) directed.push_back(uint64_t(local(f[k])) << 32 | local(f[(k + 1) % 3]));
   std::sort(directed.begin(), directed.end());
   bool manifold = std::adjacent_find(directed.begin(), directed.end()) == directed.end();
+  std::vector<uint64_t> border;  // directed edges without their reverse
   for (uint64_t e : directed)
-    manifold = manifold && std::binary_search(directed.begin(), directed.end(), (e << 32) | (e >> 32));
+    if (!std::binary_search(directed.begin(), directed.end(), (e << 32) | (e >> 32))) border.push_back(e);
   // One fan per vertex: the edges opposite it in its faces join into one cycle.
   std::vector<std::array<uint32_t, 3>> link;  // (vertex, next, previous)
   for (const auto& f : faces)
@@ -71,9 +75,21 @@ Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces) {
     }
   size_t pieces = 0;
   for (uint32_t v = 0; v < verts.size(); ++v) pieces += find(v) == v;
-  s.closed_manifold = manifold;
+  // Boundary loops: the border edges' pieces (in a manifold each border
+  // vertex has one border edge in and one out, so each piece is one loop).
+  std::iota(parent.begin(), parent.end(), 0u);
+  std::vector<char> on_border(verts.size(), 0);
+  for (uint64_t e : border) {
+    const uint32_t a = uint32_t(e >> 32), b = uint32_t(e);
+    on_border[a] = on_border[b] = 1;
+    if (find(a) != find(b)) parent[find(a)] = find(b);
+  }
+  for (uint32_t v = 0; v < verts.size(); ++v) s.loops += on_border[v] && find(v) == v;
+  const size_t edges = (directed.size() + border.size()) / 2;
+  s.manifold = manifold;
+  s.closed_manifold = manifold && border.empty();
   s.one_piece = pieces == 1;
-  s.euler = int64_t(verts.size()) - int64_t(directed.size() / 2) + int64_t(faces.size());
+  s.euler = int64_t(verts.size()) - int64_t(edges) + int64_t(faces.size());
   return s;
 }
 
@@ -99,17 +115,36 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
   // characteristic, counted in one pass over the surface's rows (a sort of
   // its million corners, as shape_of does for the small output, cost igea
   // a second).
-  std::vector<char> closed(parts, 1);
+  // Open parts too, where they are manifolds (every edge in one or two
+  // faces): their boundary loops, counted as the pieces of their border
+  // edges' graph.
+  std::vector<char> closed(parts, 1), manifold(parts, 1);
   std::vector<int64_t> euler(parts, 0);
+  std::vector<uint32_t> border_root(nv);
+  std::iota(border_root.begin(), border_root.end(), 0u);
+  auto root = [&](uint32_t x) {
+    while (border_root[x] != x) x = border_root[x] = border_root[border_root[x]];
+    return x;
+  };
+  std::vector<char> on_border(nv, 0);
   for (uint32_t u = 0; u < nv; ++u) {
     const uint32_t p = vertex_part[u];
     if (p == UINT32_MAX) continue;
     ++euler[p];
     for (uint32_t i = edges.offset[u]; i < edges.offset[u + 1]; ++i) {
       if (edges.faces[i] != 2) closed[p] = 0;
+      if (edges.faces[i] > 2) manifold[p] = 0;
       if (edges.neighbor[i] > u) --euler[p];
+      if (edges.faces[i] == 1) {
+        on_border[u] = on_border[edges.neighbor[i]] = 1;
+        const uint32_t a = root(u), b = root(edges.neighbor[i]);
+        if (a != b) border_root[std::max(a, b)] = std::min(a, b);
+      }
     }
   }
+  std::vector<size_t> loops(parts, 0);
+  for (uint32_t u = 0; u < nv; ++u)
+    if (on_border[u] && root(u) == u && vertex_part[u] != UINT32_MAX) ++loops[vertex_part[u]];
   for (uint32_t p = 0; p < parts; ++p) euler[p] += part_face_count[p];
   uint32_t cells = 0;
   for (uint32_t l : label)
@@ -135,11 +170,17 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
     std::vector<uint32_t> cell;
   };
   std::vector<Replacement> replacements;
+  // Whole: a manifold in one piece with the input part's Euler
+  // characteristic and boundary loops (closed when the part is).
+  auto whole = [&](const Shape& shape, uint32_t p) {
+    return shape.manifold && shape.one_piece && shape.euler == euler[p] && shape.loops == loops[p] &&
+           shape.closed_manifold == bool(closed[p]);
+  };
   for (uint32_t p = 0; p < parts; ++p) {
-    if (!closed[p]) continue;
-    ++stats->closed_parts;
+    if (!manifold[p]) continue;  // no shape to hold the dual to
+    ++(closed[p] ? stats->closed_parts : stats->open_parts);
     const Shape now = shape_of(out_faces[p]);
-    if (now.closed_manifold && now.one_piece && now.euler == euler[p]) continue;
+    if (whole(now, p)) continue;
     // The part alone, compact, in the surface's frame.
     Mesh sub;
     sub.origin = surface.origin;
@@ -169,8 +210,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
     // not taken: the part stays as the dual made it. (Parts welded at single
     // vertices no longer reach here as one part: refine_surface splits such
     // vertices, surface/pinch_split.h.)
-    const Shape fixed = shape_of(faces);
-    if (!(fixed.closed_manifold && fixed.one_piece && fixed.euler == euler[p])) {
+    if (!whole(shape_of(faces), p)) {
       ++stats->parts_left;
       continue;
     }

@@ -1,12 +1,16 @@
-// The last guard of "closed stays closed": a closed part of the input whose
-// dual (surface/cluster_mesh.h) came out open, non-manifold, in pieces or of
-// another genus is replaced by a quadric decimation of that part (OpenMesh's,
-// peers/peers.h: edge collapses that pass the link condition keep a closed
-// manifold closed and its genus) to the same number of vertices. The CVT's
-// topology step (surface_cvt.h) makes this rare; it is for the thin parts
-// that step cannot afford at the target (a wire ring 2% thick at 300
-// vertices, an octagonal table leg at 100: scripts/stress-shapes.py), where
-// a person would rather see a coarse leg than a hole.
+// The last guard of "closed stays closed" and "boundary loops kept": a part
+// of the input whose dual (surface/cluster_mesh.h) came out non-manifold, in
+// pieces, of another genus, closed where the part is open or open where it
+// is closed, with other boundary loops, or not at all, is replaced by a
+// quadric decimation of that part (OpenMesh's, peers/peers.h: edge collapses
+// that pass the link condition keep a manifold's genus) to the same number
+// of vertices, when the decimation is whole. The CVT's topology step
+// (surface_cvt.h) makes this rare; it is for the thin or small parts that
+// step cannot afford at the target (a wire ring 2% thick at 300 vertices, an
+// octagonal table leg at 100, a fin on a box whose four cells at 100 left no
+// dual triangle: scripts/stress-shapes.py), where a person would rather see
+// a coarse leg or fin than a hole or nothing. Parts that are not manifolds
+// (an edge in more than two faces) have no shape to hold the dual to.
 #pragma once
 
 #include <cstdint>
@@ -20,7 +24,8 @@ namespace vpr {
 
 struct PartFallbackStats {
   size_t closed_parts = 0;     // closed parts of the surface
-  size_t parts_replaced = 0;   // closed parts whose dual was broken, now decimated
+  size_t open_parts = 0;       // open parts that are manifolds (every edge in one or two faces)
+  size_t parts_replaced = 0;   // parts whose dual was broken, now decimated
   size_t parts_left = 0;       // broken, but the decimation was no better (left as the dual made them)
 };
 

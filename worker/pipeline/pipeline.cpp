@@ -561,10 +561,11 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             note = "dual of the CVT cells; " + std::to_string(result.cluster_mesh.holes_closed) +
                    " dual holes closed, " + std::to_string(result.cluster_mesh.boundary_loops) + " boundary loops kept";
             if (fallback.parts_replaced > 0)
-              note += "; " + std::to_string(fallback.parts_replaced) + " of " + std::to_string(fallback.closed_parts) +
-                      " closed parts decimated instead (their dual was open or in pieces)";
+              note += "; " + std::to_string(fallback.parts_replaced) + " of " +
+                      std::to_string(fallback.closed_parts + fallback.open_parts) +
+                      " parts decimated instead (their dual lost the part's shape: opened, closed, in pieces or gone)";
             if (fallback.parts_left > 0)
-              note += "; " + std::to_string(fallback.parts_left) + " closed parts came out broken";
+              note += "; " + std::to_string(fallback.parts_left) + " parts came out broken";
             const OffsetFitStats& fit = result.cluster_mesh.offset;
             if (fit.free_vertices > 0) {
               char text[200];
