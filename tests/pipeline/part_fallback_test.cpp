@@ -163,6 +163,26 @@ TEST(PartFallback, AnOpenPartWhoseDualIsGoneComesBackWithItsLoop) {
   for (uint32_t c : d.cell) EXPECT_LT(c, d.cells);
 }
 
+TEST(PartFallback, APartTheCvtGaveNoCellIsLeftAlone) {
+  // A target too small for every part leaves a part with no cell (its
+  // elements unlabelled) and so no dual: by design, not broken. Replacing it
+  // gave its vertices no cell to take (the pipeline fuzzer's input
+  // part-with-no-cell-replaced read past the cells' sums).
+  Dual d = dual_of_torus(300);
+  const Mesh square = open_square(10);
+  const uint32_t base = uint32_t(d.surface.vertex_count());
+  d.surface.positions.insert(d.surface.positions.end(), square.positions.begin(), square.positions.end());
+  for (uint32_t i : square.indices) d.surface.indices.push_back(base + i);
+  d.label.resize(d.surface.vertex_count(), UINT32_MAX);
+  d.edges = mesh_edges(d.surface);
+  const Mesh before = d.out;
+  PartFallbackStats stats;
+  ASSERT_TRUE(replace_broken_parts(d.surface, d.edges, d.label, 300, &d.out, &d.cell, &stats).ok());
+  EXPECT_EQ(stats.parts_replaced, 0u);
+  EXPECT_EQ(d.out.indices, before.indices);
+  for (uint32_t c : d.cell) EXPECT_LT(c, d.cells);
+}
+
 TEST(PartFallback, RefusesMismatchedInputs) {
   Dual d = dual_of_torus(100);
   d.cell.pop_back();

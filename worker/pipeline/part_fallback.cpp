@@ -150,11 +150,11 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
   for (uint32_t l : label)
     if (l != UINT32_MAX) cells = std::max(cells, l + 1);
   std::vector<uint32_t> cell_part(cells, UINT32_MAX);
-  std::vector<uint32_t> part_cells(parts, 0);
+  std::vector<uint32_t> part_cells(parts, 0), first_cell(parts, 0);
   for (size_t v = 0; v < nv; ++v)
     if (label[v] != UINT32_MAX && vertex_part[v] != UINT32_MAX && cell_part[label[v]] == UINT32_MAX) {
       cell_part[label[v]] = vertex_part[v];
-      ++part_cells[vertex_part[v]];
+      if (part_cells[vertex_part[v]]++ == 0) first_cell[vertex_part[v]] = label[v];
     }
   // The output's faces by the part their cells lie in.
   std::vector<std::vector<std::array<uint32_t, 3>>> out_faces(parts);
@@ -178,6 +178,10 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
   };
   for (uint32_t p = 0; p < parts; ++p) {
     if (!manifold[p]) continue;  // no shape to hold the dual to
+    // A part the CVT gave no cell (the target too small for every part: the
+    // cvt stage's note says so) has no dual by design, and no cell for a
+    // replacement's vertices to take.
+    if (part_cells[p] == 0) continue;
     ++(closed[p] ? stats->closed_parts : stats->open_parts);
     const Shape now = shape_of(out_faces[p]);
     if (whole(now, p)) continue;
@@ -222,7 +226,8 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
       if (tree.empty()) break;
       const auto hit = tree.closest(load3d(r.mesh.positions.data(), v));
       const int corner = int(std::max_element(hit.barycentric.begin(), hit.barycentric.end()) - hit.barycentric.begin());
-      r.cell[v] = label[global[sub.indices[3 * size_t(hit.face) + size_t(corner)]]];
+      const uint32_t c = label[global[sub.indices[3 * size_t(hit.face) + size_t(corner)]]];
+      r.cell[v] = c < cells ? c : first_cell[p];  // every element of a part with cells has one; kept safe
     }
     replacements.push_back(std::move(r));
   }
