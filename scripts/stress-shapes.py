@@ -239,6 +239,13 @@ def shapes():
     yield "boxes-sharing-a-face", concat((b, bf), (b + [1, 0, 0], bf))
     card, cardf = plane(40)
     yield "double-sided-card", (card, np.concatenate([cardf, cardf[:, ::-1]]))
+    # Foliage: a sphere and 30 small one-sided leaves (each 1/15 of the sphere's
+    # size, 8 x 8 quads) scattered round it: at low counts each leaf gets a
+    # few cells, too few for a dual triangle, and must not vanish.
+    rng = np.random.default_rng(1)
+    leaf, leaff = plane(8)
+    leaves = [((leaf * 0.075) + rng.uniform(-2, 2, 3), leaff) for _ in range(30)]
+    yield "sphere-with-30-leaves", concat((s, sf), *leaves)
 
 
 # What a shape's output should have where the input's own count is not it:
