@@ -327,6 +327,38 @@ TEST(Pipeline, SaysWhenTheTargetIsTooSmallForEveryPart) {
   EXPECT_EQ(roomy->cvt.parts_below_minimum, 0u);
 }
 
+// Foliage: a sphere and ten small one-sided leaves. At 100 vertices each leaf
+// gets its minimum of four cells, too few for the dual to have a triangle
+// there; before the part fallback held open parts to their shape, every leaf
+// vanished with its boundary loop (scripts/stress-shapes.py's
+// sphere-with-30-leaves: 30 vertices came back for 150).
+TEST(Pipeline, SmallOpenPartsKeepTheirLoopsAtALowCount) {
+  Mesh scene = testing::icosphere(3);
+  constexpr int kLeaves = 10, kGrid = 8;
+  for (int k = 0; k < kLeaves; ++k) {
+    const uint32_t base = uint32_t(scene.vertex_count());
+    const float angle = 2.0f * 3.14159265f * float(k) / kLeaves;
+    const float cx = 1.6f * std::cos(angle), cy = 1.6f * std::sin(angle), size = 0.12f;
+    for (int j = 0; j <= kGrid; ++j)
+      for (int i = 0; i <= kGrid; ++i) {
+        const float x = size * float(i) / kGrid, y = size * float(j) / kGrid;
+        scene.positions.insert(scene.positions.end(), {cx + x, cy + y, 0.2f * size * std::sin(20.0f * x)});
+      }
+    for (uint32_t j = 0; j < kGrid; ++j)
+      for (uint32_t i = 0; i < kGrid; ++i) {
+        const uint32_t a = base + j * (kGrid + 1) + i, b = a + 1, c = a + kGrid + 2, d = a + kGrid + 1;
+        scene.indices.insert(scene.indices.end(), {a, b, c, a, c, d});
+      }
+  }
+  auto result = run_pipeline(scene, default_options(100));
+  ASSERT_TRUE(result.ok()) << result.status().to_string();
+  EXPECT_NEAR(double(result->mesh.vertex_count()), 100.0, 2.0);
+  const MeshQuality q = mesh_quality(result->mesh);
+  EXPECT_EQ(q.boundary_loops, size_t(kLeaves));
+  EXPECT_EQ(q.sheets, size_t(kLeaves + 1));
+  EXPECT_EQ(q.non_manifold_edges, 0u);
+}
+
 // --drop-parts-smaller-than leaves out only what the user names; by default
 // a speck 1% of the model's size stays.
 TEST(Pipeline, DropsSmallPartsOnlyWhenAsked) {
