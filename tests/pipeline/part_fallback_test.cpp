@@ -22,14 +22,20 @@ namespace {
 
 using testing::torus;
 
-// Edges in exactly two faces, and V - E + F.
-std::pair<bool, long> closed_and_euler(const Mesh& m) {
+// Faces per edge (undirected).
+std::map<std::pair<uint32_t, uint32_t>, int> edge_uses(const Mesh& m) {
   std::map<std::pair<uint32_t, uint32_t>, int> uses;
   for (size_t f = 0; f < m.face_count(); ++f)
     for (int k = 0; k < 3; ++k) {
       const uint32_t a = m.indices[3 * f + k], b = m.indices[3 * f + (k + 1) % 3];
       ++uses[{std::min(a, b), std::max(a, b)}];
     }
+  return uses;
+}
+
+// Edges in exactly two faces, and V - E + F.
+std::pair<bool, long> closed_and_euler(const Mesh& m) {
+  const auto uses = edge_uses(m);
   bool closed = !uses.empty();
   for (const auto& [e, n] : uses) closed = closed && n == 2;
   return {closed, long(m.vertex_count()) - long(uses.size()) + long(m.face_count())};
@@ -44,9 +50,10 @@ struct Dual {
   std::vector<uint32_t> cell;
 };
 
-Dual dual_of_torus(uint32_t count) {
+// The CVT's cells on a surface and their dual, as the pipeline's meshing stage gets them.
+Dual dual_of(const Mesh& surface, uint32_t count) {
   Dual d;
-  d.surface = torus(1.0, 0.3, 48, 96);
+  d.surface = surface;
   d.edges = mesh_edges(d.surface);
   CvtStats stats;
   EXPECT_TRUE(surface_cvt(d.surface, d.edges, vertex_areas(d.surface), count, {}, &d.label, &stats).ok());
@@ -55,6 +62,8 @@ Dual dual_of_torus(uint32_t count) {
   EXPECT_TRUE(mesh_clusters(d.surface, d.edges, d.label, d.cells, &d.out, &d.cell, &mesh_stats).ok());
   return d;
 }
+
+Dual dual_of_torus(uint32_t count) { return dual_of(torus(1.0, 0.3, 48, 96), count); }
 
 TEST(PartFallback, AWholeDualIsLeftAsItIs) {
   Dual d = dual_of_torus(300);
@@ -107,27 +116,10 @@ Mesh open_square(int n) {
 
 // Boundary edges (in one face) and V - E + F.
 std::pair<size_t, long> border_and_euler(const Mesh& m) {
-  std::map<std::pair<uint32_t, uint32_t>, int> uses;
-  for (size_t f = 0; f < m.face_count(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      const uint32_t a = m.indices[3 * f + k], b = m.indices[3 * f + (k + 1) % 3];
-      ++uses[{std::min(a, b), std::max(a, b)}];
-    }
+  const auto uses = edge_uses(m);
   size_t border = 0;
   for (const auto& [e, n] : uses) border += n == 1;
   return {border, long(m.vertex_count()) - long(uses.size()) + long(m.face_count())};
-}
-
-Dual dual_of(const Mesh& surface, uint32_t count) {
-  Dual d;
-  d.surface = surface;
-  d.edges = mesh_edges(d.surface);
-  CvtStats stats;
-  EXPECT_TRUE(surface_cvt(d.surface, d.edges, vertex_areas(d.surface), count, {}, &d.label, &stats).ok());
-  d.cells = stats.clusters;
-  ClusterMeshStats mesh_stats;
-  EXPECT_TRUE(mesh_clusters(d.surface, d.edges, d.label, d.cells, &d.out, &d.cell, &mesh_stats).ok());
-  return d;
 }
 
 TEST(PartFallback, AWholeOpenDualIsLeftAsItIs) {

@@ -153,14 +153,19 @@ void weld(std::vector<uint32_t>* indices, const std::vector<double>& positions) 
   for (uint32_t& i : *indices) i = to[i];
 }
 
+// Unit cubes at (0, 0) and (x, y), welded where they touch.
+void two_welded_cubes(double x, double y, std::vector<uint32_t>* indices, std::vector<double>* positions) {
+  add_cube(indices, positions, 0, 0);
+  add_cube(indices, positions, x, y);
+  weld(indices, *positions);
+}
+
 TEST(PinchSplit, TwoCubesSharingAnEdgeComeApartAsTwoClosedCubes) {
   // Cubes [0,1]^3 and [1,2] x [1,2] x [0,1]: the edge x = y = 1 is in four
   // faces. Paired by the solid each bounds, each cube keeps its own two.
   std::vector<uint32_t> indices;
   std::vector<double> positions;
-  add_cube(&indices, &positions, 0, 0);
-  add_cube(&indices, &positions, 1, 1);
-  weld(&indices, positions);
+  two_welded_cubes(1, 1, &indices, &positions);
   size_t count = positions.size() / 3;
   ASSERT_EQ(crowded_edges(indices), 1u);
   const auto copies = split_pinched_vertices(&indices, &count, positions);
@@ -189,9 +194,7 @@ TEST(PinchSplit, TwoCubesSharingAFaceComeApartAsTwoClosedCubes) {
   // both: each cube keeps its own wall and comes back closed.
   std::vector<uint32_t> indices;
   std::vector<double> positions;
-  add_cube(&indices, &positions, 0, 0);
-  add_cube(&indices, &positions, 1, 0);
-  weld(&indices, positions);
+  two_welded_cubes(1, 0, &indices, &positions);
   size_t count = positions.size() / 3;
   ASSERT_EQ(crowded_edges(indices), 5u);  // the wall's four sides and its diagonal
   const auto copies = split_pinched_vertices(&indices, &count, positions);
