@@ -1,7 +1,10 @@
 #include "surface/surface_density.h"
 
 #include <algorithm>
+#include <atomic>
+#include <functional>
 #include <cmath>
+#include <numeric>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -32,48 +35,129 @@ const char* density_mode_name(DensityMode mode) {
   return "perception";
 }
 
+namespace {
+
+// Counting sort of items into buckets, in parallel: bucket_of(i) for item i
+// in [0, n); start gets buckets + 1 offsets, slot the items bucket by bucket,
+// each bucket then sorted by `less` (so the order is the same on any thread
+// count whatever order the atomics filled it in).
+template <class Item, class BucketOf, class MakeItem, class Less>
+void bucket_sort(size_t n, size_t buckets, BucketOf bucket_of, MakeItem make_item, Less less,
+                 std::vector<uint32_t>* start, std::vector<Item>* slot) {
+  std::vector<std::atomic<uint32_t>> count(buckets + 1);
+  for (auto& c : count) c.store(0, std::memory_order_relaxed);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) count[bucket_of(i) + 1].fetch_add(1, std::memory_order_relaxed);
+  });
+  start->assign(buckets + 1, 0);
+  for (size_t b = 1; b <= buckets; ++b) (*start)[b] = (*start)[b - 1] + count[b].load(std::memory_order_relaxed);
+  for (size_t b = 0; b < buckets; ++b) count[b].store((*start)[b], std::memory_order_relaxed);
+  slot->resize(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i)
+      (*slot)[count[bucket_of(i)].fetch_add(1, std::memory_order_relaxed)] = make_item(i);
+  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b != r.end(); ++b)
+      std::sort(slot->begin() + (*start)[b], slot->begin() + (*start)[b + 1], less);
+  });
+}
+
+}  // namespace
+
+// The sums run in parallel with the same bits as one thread adding edge by
+// edge in (lower vertex, upper vertex) order and face by face: each vertex
+// gathers its own terms in that order (the faces it is a corner of, in face
+// order; its edges to lower vertices, then to higher ones, each ascending).
 std::vector<double> mean_curvature(const Mesh& mesh) {
   const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
+  const float* p = mesh.positions.data();
+  const uint32_t* idx = mesh.indices.data();
   std::vector<Vec3d> normal(nf);
-  std::vector<double> area(nv, 0.0), integral(nv, 0.0);
-  struct Half {
-    uint64_t key;
-    uint32_t face;
-  };
-  std::vector<Half> halves;
-  halves.reserve(3 * nf);
-  for (size_t f = 0; f < nf; ++f) {
-    const uint32_t* t = &mesh.indices[3 * f];
-    const Vec3d a = load3d(mesh.positions.data(), t[0]), b = load3d(mesh.positions.data(), t[1]),
-                c = load3d(mesh.positions.data(), t[2]);
-    const Vec3d n = cross(b - a, c - a);
-    const double len = norm(n);
-    normal[f] = len > 0 ? n * (1.0 / len) : Vec3d{0, 0, 0};
-    for (int k = 0; k < 3; ++k) area[t[k]] += len / 6.0;
-    for (int k = 0; k < 3; ++k) {
-      const uint64_t u = t[k], w = t[(k + 1) % 3];
-      halves.push_back({u < w ? (u << 32 | w) : (w << 32 | u), uint32_t(f)});
+  std::vector<double> twice_area(nf);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f != r.end(); ++f) {
+      const uint32_t* t = &idx[3 * f];
+      const Vec3d a = load3d(p, t[0]), b = load3d(p, t[1]), c = load3d(p, t[2]);
+      const Vec3d n = cross(b - a, c - a);
+      const double len = norm(n);
+      normal[f] = len > 0 ? n * (1.0 / len) : Vec3d{0, 0, 0};
+      twice_area[f] = len;
     }
-  }
-  std::sort(halves.begin(), halves.end(), [](const Half& x, const Half& y) {
-    return x.key != y.key ? x.key < y.key : x.face < y.face;
   });
-  for (size_t i = 0; i < halves.size();) {
-    size_t j = i;
-    while (j < halves.size() && halves[j].key == halves[i].key) ++j;
-    // The largest angle between the normals of the edge's faces (two on a manifold edge).
-    double angle = 0;
-    for (size_t p = i; p < j; ++p)
-      for (size_t q = p + 1; q < j; ++q)
-        angle = std::max(angle, std::acos(std::clamp(dot(normal[halves[p].face], normal[halves[q].face]), -1.0, 1.0)));
-    const uint32_t u = uint32_t(halves[i].key >> 32), w = uint32_t(halves[i].key);
-    const double length = norm(load3d(mesh.positions.data(), u) - load3d(mesh.positions.data(), w));
-    integral[u] += 0.25 * angle * length;
-    integral[w] += 0.25 * angle * length;
-    i = j;
-  }
+  // Corner i of face i / 3 and its half-edge to the next corner.
+  auto from = [&](size_t i) { return idx[i]; };
+  auto to = [&](size_t i) { return idx[i - i % 3 + (i % 3 + 1) % 3]; };
+  // Each vertex's faces, in face order.
+  std::vector<uint32_t> corner_start, corner_face;
+  bucket_sort<uint32_t>(
+      3 * nf, nv, from, [](size_t i) { return uint32_t(i / 3); }, std::less<uint32_t>(), &corner_start, &corner_face);
+  // The half-edges by lower vertex, each bucket in (upper vertex, face) order.
+  struct Half {
+    uint32_t upper, face;
+  };
+  std::vector<uint32_t> start;
+  std::vector<Half> halves;
+  bucket_sort<Half>(
+      3 * nf, nv, [&](size_t i) { return std::min(from(i), to(i)); },
+      [&](size_t i) { return Half{std::max(from(i), to(i)), uint32_t(i / 3)}; },
+      [](const Half& x, const Half& y) { return x.upper != y.upper ? x.upper < y.upper : x.face < y.face; }, &start,
+      &halves);
+  // Edges: runs of equal (lower, upper), numbered in that order.
+  std::vector<uint32_t> edge_start(nv + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v)
+      for (uint32_t i = start[v]; i < start[v + 1]; ++i)
+        edge_start[v + 1] += i == start[v] || halves[i].upper != halves[i - 1].upper;
+  });
+  std::partial_sum(edge_start.begin(), edge_start.end(), edge_start.begin());
+  const size_t ne = edge_start[nv];
+  std::vector<uint32_t> edge_begin(ne + 1), edge_lower(ne);
+  edge_begin[ne] = uint32_t(3 * nf);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v) {
+      uint32_t e = edge_start[v];
+      for (uint32_t i = start[v]; i < start[v + 1]; ++i)
+        if (i == start[v] || halves[i].upper != halves[i - 1].upper) {
+          edge_lower[e] = uint32_t(v);
+          edge_begin[e++] = i;
+        }
+    }
+  });
+  // Each edge's term, 1/4 |dihedral angle| x length.
+  std::vector<double> term(ne);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, ne, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t e = r.begin(); e != r.end(); ++e) {
+      const uint32_t i = edge_begin[e], j = edge_begin[e + 1];
+      // The largest angle between the normals of the edge's faces (two on a manifold edge).
+      double angle = 0;
+      for (uint32_t a = i; a < j; ++a)
+        for (uint32_t b = a + 1; b < j; ++b)
+          angle = std::max(angle,
+                           std::acos(std::clamp(dot(normal[halves[a].face], normal[halves[b].face]), -1.0, 1.0)));
+      const double length = norm(load3d(p, edge_lower[e]) - load3d(p, halves[i].upper));
+      term[e] = 0.25 * angle * length;
+    }
+  });
+  // Each vertex's edges to lower vertices, ascending.
+  std::vector<uint32_t> down_start, down;
+  bucket_sort<uint32_t>(
+      ne, nv, [&](size_t e) { return halves[edge_begin[e]].upper; }, [](size_t e) { return uint32_t(e); },
+      std::less<uint32_t>(), &down_start, &down);
   std::vector<double> h(nv, 0.0);
-  for (size_t v = 0; v < nv; ++v) h[v] = area[v] > 0 ? integral[v] / area[v] : 0.0;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v) {
+      double area = 0.0, integral = 0.0;
+      for (uint32_t i = corner_start[v]; i < corner_start[v + 1]; ++i) area += twice_area[corner_face[i]] / 6.0;
+      for (uint32_t i = down_start[v]; i < down_start[v + 1]; ++i)
+        if (edge_lower[down[i]] != v) integral += term[down[i]];
+      for (uint32_t e = edge_start[v]; e < edge_start[v + 1]; ++e) {
+        integral += term[e];
+        if (halves[edge_begin[e]].upper == v) integral += term[e];  // an edge from v to itself counts at both ends
+      }
+      h[v] = area > 0 ? integral / area : 0.0;
+    }
+  });
   return h;
 }
 
