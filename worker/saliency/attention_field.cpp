@@ -3,6 +3,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cassert>
@@ -162,7 +163,9 @@ void finish_attention_field(const float* vertices, const float* curvature, const
   // Rank normalization: equal raw values share their mean rank.
   std::vector<uint32_t> by_value(n);
   std::iota(by_value.begin(), by_value.end(), 0u);
-  std::sort(by_value.begin(), by_value.end(), [&](uint32_t a, uint32_t b) { return raw[a] < raw[b]; });
+  // In parallel: how equal values end up ordered among themselves does not
+  // matter, they share one rank.
+  tbb::parallel_sort(by_value.begin(), by_value.end(), [&](uint32_t a, uint32_t b) { return raw[a] < raw[b]; });
   importance->assign(n, 1.0f);
   const double span = 1.0 - double(o.min_importance);
   for (size_t i = 0; i < n;) {

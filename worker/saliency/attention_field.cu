@@ -18,13 +18,16 @@ struct GridShape {
   int dims[3];
 };
 
-// vertices: #V x 3 in original order; coarse: #V outputs in original order.
-__global__ void coarse_curvature_kernel(const float* vertices, uint32_t n, const float* sorted,
+// One thread per grid entry, in the grid's order (neighbouring threads scan
+// the same cells: fewer distinct loads per warp than in vertex order, and the
+// same sum per vertex); sorted holds each vertex's own position, so every
+// vertex's mean has the CPU twin's bits. coarse: #V outputs in original order.
+__global__ void coarse_curvature_kernel(const uint32_t* order, uint32_t n, const float* sorted,
                                         const uint32_t* cell_start, GridShape shape, float sigma, float* coarse) {
-  const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
-  if (v >= n) return;
-  coarse[v] = coarse_curvature_mean(sorted, cell_start, shape.lo, shape.cell, shape.dims, vertices[3 * v],
-                                    vertices[3 * v + 1], vertices[3 * v + 2], sigma);
+  const uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (t >= n) return;
+  coarse[order[t]] = coarse_curvature_mean(sorted, cell_start, shape.lo, shape.cell, shape.dims, sorted[4 * t],
+                                           sorted[4 * t + 1], sorted[4 * t + 2], sigma);
 }
 
 // The image cue: weighted count of feature points near each vertex.
@@ -54,13 +57,13 @@ Status attention_field(const float* vertices, const float* curvature, const floa
   shape.cell = grid.cell;
 
   DeviceBuffer<float> d_vertices, d_sorted, d_coarse;
-  DeviceBuffer<uint32_t> d_cell_start;
-  VPR_RETURN_IF_ERROR(d_vertices.upload(vertices, 3 * n, ctx));
+  DeviceBuffer<uint32_t> d_cell_start, d_order;
   VPR_RETURN_IF_ERROR(d_sorted.upload(grid.sorted.data(), grid.sorted.size(), ctx));
+  VPR_RETURN_IF_ERROR(d_order.upload(grid.order.data(), grid.order.size(), ctx));
   VPR_RETURN_IF_ERROR(d_cell_start.upload(grid.cell_start.data(), grid.cell_start.size(), ctx));
   VPR_RETURN_IF_ERROR(d_coarse.allocate(n, ctx));
   const cudaStream_t stream = stream_of(ctx);
-  coarse_curvature_kernel<<<blocks_for(n), kBlock, 0, stream>>>(d_vertices.get(), uint32_t(n), d_sorted.get(),
+  coarse_curvature_kernel<<<blocks_for(n), kBlock, 0, stream>>>(d_order.get(), uint32_t(n), d_sorted.get(),
                                                                 d_cell_start.get(), shape, grid.sigma, d_coarse.get());
   VPR_CUDA_LAUNCHED("coarse_curvature_kernel");
   std::vector<float> coarse(n);
@@ -70,6 +73,7 @@ Status attention_field(const float* vertices, const float* curvature, const floa
   DeviceBuffer<float> d_points, d_density;
   DeviceBuffer<uint32_t> d_point_start;
   if (use_image_cue(options, features)) {
+    VPR_RETURN_IF_ERROR(d_vertices.upload(vertices, 3 * n, ctx));
     points = bin_points(grid, features.xyz, features.count);
     VPR_RETURN_IF_ERROR(d_points.upload(points.sorted.data(), points.sorted.size(), ctx));
     VPR_RETURN_IF_ERROR(d_point_start.upload(points.cell_start.data(), points.cell_start.size(), ctx));
