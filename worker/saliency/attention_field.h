@@ -130,13 +130,18 @@ VPR_HD inline void weighted_sums_near(const float* sorted, const uint32_t* cell_
       if (y < 0 || y >= dims[1]) continue;
       const int x0 = c[0] > 0 ? c[0] - 1 : 0, x1 = c[0] + 1 < dims[0] ? c[0] + 1 : dims[0] - 1;
       const size_t row = (size_t(z) * size_t(dims[1]) + size_t(y)) * size_t(dims[0]);
+      // Without a branch: a point out of reach adds +0.0, which leaves the
+      // (never negative) sums' bits as they are, so the result is the same as
+      // skipping it, and its value is never read (an infinite |H| far away
+      // does not turn the sum into NaN).
       for (uint32_t t = cell_start[row + x0]; t < cell_start[row + x1 + 1]; ++t) {
         const float dx = sorted[4 * t] - px, dy = sorted[4 * t + 1] - py, dz = sorted[4 * t + 2] - pz;
         const float d2 = dx * dx + dy * dy + dz * dz;
-        if (d2 > reach2) continue;
+        const bool near = !(d2 > reach2);
         const float falloff = 1.0f - d2 * inv_reach2;
-        const double w = double(falloff * falloff);
-        sum += w * double(sorted[4 * t + 3]);
+        const double w = near ? double(falloff * falloff) : 0.0;
+        const double value = near ? double(sorted[4 * t + 3]) : 0.0;
+        sum += w * value;
         weight += w;
       }
     }
