@@ -27,8 +27,13 @@ std::vector<double> over_median(const float* x, size_t n, double cap) {
   for (size_t i = 0; i < n; ++i)
     if (std::isfinite(x[i])) finite.push_back(x[i]);
   const double ref = typical_positive_value(finite);
-  std::vector<double> v(x, x + n);
-  for (double& t : v) t = !std::isfinite(t) ? cap : ref > 0 ? std::min(t / ref, cap) : 1.0;
+  std::vector<double> v(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      const double t = x[i];
+      v[i] = !std::isfinite(t) ? cap : ref > 0 ? std::min(t / ref, cap) : 1.0;
+    }
+  });
   return v;
 }
 
@@ -144,22 +149,27 @@ void finish_attention_field(const float* vertices, const float* curvature, const
   // Nearness along the view direction, 0 at the far end of the model, 1 at the near one.
   const Vec3d d{o.view_direction.x, o.view_direction.y, o.view_direction.z};
   std::vector<double> along(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v)
+      along[v] = d.x * vertices[3 * v] + d.y * vertices[3 * v + 1] + d.z * vertices[3 * v + 2];
+  });
   double lo = 0, hi = 0;
   for (size_t v = 0; v < n; ++v) {
-    along[v] = d.x * vertices[3 * v] + d.y * vertices[3 * v + 1] + d.z * vertices[3 * v + 2];
     lo = v ? std::min(lo, along[v]) : along[v];
     hi = v ? std::max(hi, along[v]) : along[v];
   }
   std::vector<double> raw(n);
-  for (size_t v = 0; v < n; ++v) {
-    const double nearness = hi > lo ? (along[v] - lo) / (hi - lo) : 1.0;
-    const double cues = density ? (fine[v] + wide[v] + image[v]) / 3.0 : 0.5 * (fine[v] + wide[v]);
-    raw[v] = std::sqrt(cues) * (1.0 - o.view_bias + o.view_bias * nearness);
-    if (visibility) raw[v] *= std::clamp(double(visibility[v]), 0.0, 1.0);
-    // A cue that is not a number (the curvature of a face with a zero-length
-    // edge) counts as no cue: NaN would break the sort's ordering below.
-    if (!std::isfinite(raw[v])) raw[v] = 0.0;
-  }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v) {
+      const double nearness = hi > lo ? (along[v] - lo) / (hi - lo) : 1.0;
+      const double cues = density ? (fine[v] + wide[v] + image[v]) / 3.0 : 0.5 * (fine[v] + wide[v]);
+      raw[v] = std::sqrt(cues) * (1.0 - o.view_bias + o.view_bias * nearness);
+      if (visibility) raw[v] *= std::clamp(double(visibility[v]), 0.0, 1.0);
+      // A cue that is not a number (the curvature of a face with a zero-length
+      // edge) counts as no cue: NaN would break the sort's ordering below.
+      if (!std::isfinite(raw[v])) raw[v] = 0.0;
+    }
+  });
   // Rank normalization: equal raw values share their mean rank.
   std::vector<uint32_t> by_value(n);
   std::iota(by_value.begin(), by_value.end(), 0u);
