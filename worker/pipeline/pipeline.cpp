@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <future>
 #include <optional>
 #include <string>
 #include <utility>
@@ -310,6 +311,16 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   result.cpu_reason = device.cpu_reason();
   StageRunner stage(options, &result, kFrontHalf);
 
+  // The attention field's mean curvature needs only the input: it runs on the
+  // host beside stages 1-3 (the renderer and the image saliency leave the
+  // host's cores mostly idle, on the GPU and with llvmpipe alike), and stage 4
+  // waits for it. The same bits either way (mean_curvature is deterministic).
+  // An early return waits for it in the future's destructor, while `input`
+  // still lives.
+  std::future<std::vector<double>> curvature_beside;
+  if (options.density != DensityMode::kPaper && front->curvature.empty())
+    curvature_beside = std::async(std::launch::async, [&input] { return mean_curvature(input); });
+
   // Stage 1: cameras and snapshots.
   std::vector<View> views;
   VPR_RETURN_IF_ERROR(stage.run("views", cpu, [&]() -> Status {
@@ -427,6 +438,7 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   // the surface CVT's density also reuses the curvature computed here.
   return stage.run_twin("saliency_field", device, [&](const ExecContext& c) -> Status {
     std::vector<double>& curvature = front->curvature;
+    if (curvature_beside.valid()) curvature = curvature_beside.get();  // a CPU rerun after a GPU failure keeps it
     if (curvature.empty()) curvature = mean_curvature(input);  // a CPU rerun after a GPU failure keeps it
     const std::vector<float> h(curvature.begin(), curvature.end());
     // The image cue: the front half's saliency points (stage 3), in the
