@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <numeric>
 #include <set>
@@ -184,6 +185,42 @@ TEST(SurfaceRefineTest, SplitsLongEdgesAndKeepsTheShape) {
     }
   for (size_t v = 0; v < r->mesh.vertex_count(); ++v)  // the value is linear in x: interpolated exactly
     ASSERT_NEAR(r->value[v], r->mesh.positions[3 * v], 1e-6);
+}
+
+// The geometry made first (a job makes it beside its front half), then two
+// different value sets carried onto it: each the bits refine_surface gives
+// for that set, on a surface with a pinch copy (two cubes sharing a corner)
+// and an unused vertex.
+TEST(SurfaceRefineTest, GeometryFirstThenValuesGivesRefineSurfaceBits) {
+  Mesh m = box(1, 1, 1, 1);
+  const Mesh other = box(1, 1, 1, 1);
+  const uint32_t base = uint32_t(m.vertex_count());
+  for (size_t i = 0; i < other.positions.size(); ++i) m.positions.push_back(other.positions[i] + 1.0f);  // corner (1,1,1) shared
+  for (uint32_t i : other.indices) m.indices.push_back(base + i);
+  m.positions.insert(m.positions.end(), {5.0f, 5.0f, 5.0f});  // unused
+  std::vector<float> a(2 * m.vertex_count()), b(2 * m.vertex_count());
+  for (size_t v = 0; v < m.vertex_count(); ++v) {
+    a[2 * v] = m.positions[3 * v];
+    a[2 * v + 1] = float(v % 7);
+    b[2 * v] = m.positions[3 * v + 2] * 3.0f;
+    b[2 * v + 1] = 1.0f / float(v + 1);
+  }
+  auto geometry = refine_geometry(m, 0.15, 1'000'000);
+  ASSERT_TRUE(geometry.ok()) << geometry.status().to_string();
+  EXPECT_TRUE(geometry->value.empty());
+  EXPECT_FALSE(geometry->pinch_copies.empty());
+  for (const std::vector<float>* value : {&a, &b}) {
+    auto whole = refine_surface(m, *value, 2, 0.15, 1'000'000);
+    ASSERT_TRUE(whole.ok());
+    RefinedSurface carried = *geometry;
+    ASSERT_TRUE(carry_values(*value, 2, &carried).ok());
+    EXPECT_EQ(carried.mesh.indices, whole->mesh.indices);
+    EXPECT_EQ(carried.mesh.positions, whole->mesh.positions);
+    ASSERT_EQ(carried.value.size(), whole->value.size());
+    EXPECT_EQ(std::memcmp(carried.value.data(), whole->value.data(), carried.value.size() * sizeof(float)), 0);
+  }
+  RefinedSurface wrong = *geometry;
+  EXPECT_EQ(carry_values(std::vector<float>(3), 2, &wrong).code(), StatusCode::kInvalidArgument);
 }
 
 TEST(MeshEdgesTest, RowsMatchTheFacesEdges) {

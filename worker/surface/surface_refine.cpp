@@ -21,14 +21,10 @@ Vec3d at(const std::vector<double>& p, uint32_t i) {
 
 }  // namespace
 
-StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<float>& value, int channels,
-                                        double max_edge, size_t max_vertices) {
-  const size_t k = size_t(channels);
-  if (channels < 1 || value.size() != k * input.vertex_count())
-    return invalid_argument("refine: `channels` values per vertex expected");
+StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, size_t max_vertices) {
   if (!(max_edge > 0) || !std::isfinite(max_edge)) return invalid_argument("refine: max_edge must be positive");
   RefinedSurface out;
-  out.channels = channels;
+  out.input_vertices = input.vertex_count();
   size_t count = 0;  // refined vertices
   // Weld exact duplicates (the lowest index wins, so a welded mesh keeps its
   // order): vertices sorted by position, then by index, so each run of equal
@@ -68,7 +64,7 @@ StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<flo
     if (keeper[v] == v) {
       out.mesh.positions.insert(out.mesh.positions.end(), input.positions.begin() + 3 * v,
                                 input.positions.begin() + 3 * (v + 1));
-      out.value.insert(out.value.end(), value.begin() + k * v, value.begin() + k * (v + 1));
+      out.source.push_back(uint32_t(v));
       weld[v] = uint32_t(count++);
     } else {
       weld[v] = weld[keeper[v]];  // keeper[v] < v: already numbered
@@ -87,10 +83,8 @@ StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<flo
   // Pinched vertices and edges (sheets that meet at a vertex only, or three
   // or more faces on an edge): a copy per extra fan (surface/pinch_split.h).
   out.pinch_copies = split_pinched_vertices(&out.mesh.indices, &count, pos);
-  for (const auto& [copy, original] : out.pinch_copies) {
+  for (const auto& [copy, original] : out.pinch_copies)
     for (int c = 0; c < 3; ++c) pos.push_back(pos[3 * size_t(original) + c]);
-    for (size_t c = 0; c < k; ++c) out.value.push_back(out.value[k * original + c]);
-  }
 
   // Passes of midpoint splits: each face keeps its corners' order, so the
   // refined faces keep the input's orientation. New vertices are numbered
@@ -131,14 +125,14 @@ StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<flo
       return resource_exhausted("refining the surface to edges of " + std::to_string(max_edge) + " would need over " +
                                 std::to_string(max_vertices) + " vertices");
     pos.resize(3 * (count + added));
-    out.value.resize(k * (count + added));
     tbb::parallel_for(tbb::blocked_range<size_t>(0, added, 4096), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t i = r.begin(); i != r.end(); ++i) {
         const size_t a = ends[2 * i], b = ends[2 * i + 1], n = count + i;
         for (int c = 0; c < 3; ++c) pos[3 * n + c] = 0.5 * (pos[3 * a + c] + pos[3 * b + c]);
-        for (size_t c = 0; c < k; ++c) out.value[k * n + c] = 0.5f * (out.value[k * a + c] + out.value[k * b + c]);
       }
     });
+    out.midpoint_ends.insert(out.midpoint_ends.end(), ends.begin(), ends.end());
+    out.pass_end.push_back(out.midpoint_ends.size() / 2);
     count += added;
     // A face with s split edges becomes s + 1 faces.
     std::vector<uint32_t> first(faces + 1, 0);
@@ -195,6 +189,43 @@ StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<flo
   }
   if (out.edges.offset.empty()) out.edges = mesh_edges(out.mesh.indices, count);  // 64 passes ran out
   out.mesh.positions.assign(pos.begin(), pos.end());
+  return out;
+}
+
+Status carry_values(const std::vector<float>& value, int channels, RefinedSurface* out) {
+  const size_t k = size_t(channels);
+  if (channels < 1 || value.size() != k * out->input_vertices)
+    return invalid_argument("refine: `channels` values per vertex expected");
+  out->channels = channels;
+  std::vector<float>& v = out->value;
+  v.assign(k * out->mesh.vertex_count(), 0.0f);
+  for (size_t i = 0; i < out->source.size(); ++i)
+    for (size_t c = 0; c < k; ++c) v[k * i + c] = value[k * out->source[i] + c];
+  size_t count = out->source.size();
+  for (const auto& [copy, original] : out->pinch_copies) {
+    for (size_t c = 0; c < k; ++c) v[k * count + c] = v[k * original + c];
+    ++count;
+  }
+  // Pass by pass: a pass's midpoints read only vertices made before it.
+  size_t begin = 0;
+  for (size_t end : out->pass_end) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i != r.end(); ++i) {
+        const size_t a = out->midpoint_ends[2 * i], b = out->midpoint_ends[2 * i + 1], n = count + i;
+        for (size_t c = 0; c < k; ++c) v[k * n + c] = 0.5f * (v[k * a + c] + v[k * b + c]);
+      }
+    });
+    begin = end;
+  }
+  return Status::Ok();
+}
+
+StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<float>& value, int channels,
+                                        double max_edge, size_t max_vertices) {
+  if (channels < 1 || value.size() != size_t(channels) * input.vertex_count())
+    return invalid_argument("refine: `channels` values per vertex expected");
+  VPR_ASSIGN_OR_RETURN(RefinedSurface out, refine_geometry(input, max_edge, max_vertices));
+  VPR_RETURN_IF_ERROR(carry_values(value, channels, &out));
   return out;
 }
 

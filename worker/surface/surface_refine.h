@@ -24,6 +24,14 @@ struct RefinedSurface {
   MeshEdges edges;             // the refined mesh's edges (mesh_edges(mesh)), a by-product of the last pass
   // (copy, original) for each vertex split where fans met (surface/pinch_split.h)
   std::vector<std::pair<uint32_t, uint32_t>> pinch_copies;
+  // Where each refined vertex comes from, for carry_values: the welded
+  // vertices (the first source.size()) are input vertices, then come the
+  // pinch copies in order, then the midpoints, two ends each, pass by pass
+  // (pass_end: midpoints made by the end of each pass).
+  size_t input_vertices = 0;
+  std::vector<uint32_t> source;
+  std::vector<uint32_t> midpoint_ends;
+  std::vector<size_t> pass_end;
 };
 
 // value: `channels` numbers per input vertex (e.g. importance, density),
@@ -31,5 +39,11 @@ struct RefinedSurface {
 // (RESOURCE_EXHAUSTED past it).
 StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<float>& value, int channels,
                                         double max_edge, size_t max_vertices);
+
+// The same in two steps: the geometry (value and channels left empty), which
+// needs no values, so a job can start it before its field exists; then the
+// values carried to the refined vertices, the same bits as refine_surface.
+StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, size_t max_vertices);
+Status carry_values(const std::vector<float>& value, int channels, RefinedSurface* refined);
 
 }  // namespace vpr
