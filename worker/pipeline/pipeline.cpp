@@ -122,6 +122,15 @@ double target_spacing(double area, uint32_t count) {
   return std::sqrt(2.0 * area / (std::sqrt(3.0) * count));
 }
 
+// The back half's refinement for a level: elements a quarter of the output
+// spacing apart (cvt_elements_per_vertex per output vertex), and its bound.
+double refine_max_edge(double spacing_out, const PipelineOptions& options) {
+  return spacing_out / std::sqrt(options.cvt_elements_per_vertex);
+}
+size_t refine_limit(const Mesh& input, uint32_t target, const PipelineOptions& options) {
+  return input.vertex_count() + size_t(64 * options.cvt_elements_per_vertex) * target;
+}
+
 // The pipeline runs on a copy of the input centred on its bounding box and
 // scaled to a unit diagonal, so that no tolerance anywhere (CGAL, FLANN,
 // AWLOP's guards, the renderer's depth range) depends on the model's units:
@@ -265,6 +274,11 @@ struct FrontHalf {
   std::vector<double> areas;
   double area = 0, mean_edge = 0;
   Clock::time_point start;
+  // The first level's refined surface (its geometry: refine_geometry), made
+  // beside the front half when that level is a count; declared after
+  // `input`, so an early return waits for it before `input` goes.
+  std::future<StatusOr<RefinedSurface>> refined_beside;
+  uint32_t refined_beside_target = 0;
   // Front-half stage timings and everything every level reports alike
   // (renderer, device, counts, the input field except the paper's).
   PipelineResult shared;
@@ -487,10 +501,13 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             channels[2 * v] = result.input_importance[v];
             channels[2 * v + 1] = d[v];
           }
-          const double max_edge = spacing_out / std::sqrt(options.cvt_elements_per_vertex);
-          const size_t limit =
-              input.vertex_count() + size_t(64 * options.cvt_elements_per_vertex) * options.target_vertices;
-          VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, max_edge, limit));
+          if (front.refined_beside.valid() && front.refined_beside_target == options.target_vertices) {
+            VPR_ASSIGN_OR_RETURN(refined, front.refined_beside.get());
+            VPR_RETURN_IF_ERROR(carry_values(channels, 2, &refined));
+          } else {
+            VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, refine_max_edge(spacing_out, options),
+                                                         refine_limit(input, options.target_vertices, options)));
+          }
           // Over about two output spacings (elements are a quarter of one apart).
           smooth_over_edges(refined.edges, 16, 2, 1, &refined.value);
           // A soup: most edges have one face even after welding.
@@ -785,6 +802,20 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
   VPR_RETURN_IF_ERROR(prepare_input(given, options, &front));
   VPR_ASSIGN_OR_RETURN(const std::vector<uint32_t> counts,
                        level_counts(levels, front.input.vertex_count(), options.max_level_vertices));
+  // The first level's refinement needs only the input and its count: it runs
+  // on the host beside the front half (as the curvature does), and that
+  // level's density stage takes it, the same bits as refining there.
+  if (levels[0].min_ssim <= 0 && options.density != DensityMode::kPaper) {
+    double area = 0;
+    for (double a : face_areas(front.input)) area += a;  // the same sum as the front half's
+    const double max_edge = refine_max_edge(target_spacing(area, counts[0]), options);
+    const size_t limit = refine_limit(front.input, counts[0], options);
+    const Mesh* input = &front.input;
+    front.refined_beside_target = counts[0];
+    front.refined_beside = std::async(std::launch::async, [input, max_edge, limit] {
+      return refine_geometry(*input, max_edge, limit);
+    });
+  }
   VPR_RETURN_IF_ERROR(run_front_half(options, &front));
 
   for (size_t i = 0; i < levels.size(); ++i) {
