@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <filesystem>
 #include <future>
 #include <optional>
@@ -274,11 +275,11 @@ struct FrontHalf {
   std::vector<double> areas;
   double area = 0, mean_edge = 0;
   Clock::time_point start;
-  // The first level's refined surface (its geometry: refine_geometry), made
-  // beside the front half when that level is a count; declared after
-  // `input`, so an early return waits for it before `input` goes.
-  std::future<StatusOr<RefinedSurface>> refined_beside;
-  uint32_t refined_beside_target = 0;
+  // Refined surfaces (their geometry: refine_geometry) made ahead on their
+  // own threads, per level count: the first level's beside the front half,
+  // each next count level's while the one before it runs. Declared after
+  // `input`, so an early return waits for them before `input` goes.
+  std::deque<std::pair<uint32_t, std::future<StatusOr<RefinedSurface>>>> refined_ahead;
   // Front-half stage timings and everything every level reports alike
   // (renderer, device, counts, the input field except the paper's).
   PipelineResult shared;
@@ -501,8 +502,12 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             channels[2 * v] = result.input_importance[v];
             channels[2 * v + 1] = d[v];
           }
-          if (front.refined_beside.valid() && front.refined_beside_target == options.target_vertices) {
-            VPR_ASSIGN_OR_RETURN(refined, front.refined_beside.get());
+          auto ahead = std::find_if(front.refined_ahead.begin(), front.refined_ahead.end(),
+                                    [&](const auto& a) { return a.first == options.target_vertices; });
+          if (ahead != front.refined_ahead.end()) {
+            StatusOr<RefinedSurface> made = ahead->second.get();
+            front.refined_ahead.erase(ahead);
+            VPR_ASSIGN_OR_RETURN(refined, std::move(made));
             VPR_RETURN_IF_ERROR(carry_values(channels, 2, &refined));
           } else {
             VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, refine_max_edge(spacing_out, options),
@@ -802,23 +807,26 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
   VPR_RETURN_IF_ERROR(prepare_input(given, options, &front));
   VPR_ASSIGN_OR_RETURN(const std::vector<uint32_t> counts,
                        level_counts(levels, front.input.vertex_count(), options.max_level_vertices));
-  // The first level's refinement needs only the input and its count: it runs
-  // on the host beside the front half (as the curvature does), and that
-  // level's density stage takes it, the same bits as refining there.
-  if (levels[0].min_ssim <= 0 && options.density != DensityMode::kPaper) {
-    double area = 0;
-    for (double a : face_areas(front.input)) area += a;  // the same sum as the front half's
-    const double max_edge = refine_max_edge(target_spacing(area, counts[0]), options);
-    const size_t limit = refine_limit(front.input, counts[0], options);
+  // A count level's refinement needs only the input and the count: the first
+  // level's runs beside the front half (as the curvature does), each next
+  // one's beside the level before it, and the level's density stage takes
+  // it, the same bits as refining there.
+  double area = 0;
+  for (double a : face_areas(front.input)) area += a;  // the same sum as the front half's
+  auto refine_ahead = [&](size_t level) {
+    if (level >= levels.size() || levels[level].min_ssim > 0 || options.density == DensityMode::kPaper) return;
+    const double max_edge = refine_max_edge(target_spacing(area, counts[level]), options);
+    const size_t limit = refine_limit(front.input, counts[level], options);
     const Mesh* input = &front.input;
-    front.refined_beside_target = counts[0];
-    front.refined_beside = std::async(std::launch::async, [input, max_edge, limit] {
-      return refine_geometry(*input, max_edge, limit);
-    });
-  }
+    front.refined_ahead.emplace_back(counts[level], std::async(std::launch::async, [input, max_edge, limit] {
+                                       return refine_geometry(*input, max_edge, limit);
+                                     }));
+  };
+  refine_ahead(0);
   VPR_RETURN_IF_ERROR(run_front_half(options, &front));
 
   for (size_t i = 0; i < levels.size(); ++i) {
+    refine_ahead(i + 1);
     PipelineOptions level_options = options;
     PipelineResult result;
     if (levels[i].min_ssim > 0) {
