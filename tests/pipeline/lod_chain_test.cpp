@@ -80,8 +80,17 @@ TEST(LodChain, ThreeLevelsInOrderWithTheFrontHalfOnceEachAsIfRunAlone) {
   for (const std::string& name : front)
     EXPECT_EQ(std::count_if(live.begin(), live.end(), [&](const StageTiming& t) { return t.name == name; }), 1) << name;
   for (size_t k = 1; k < live.size(); ++k) EXPECT_LE(live[k - 1].level, live[k].level);
+  // Every level's refinement was made ahead, beside the stages before it
+  // (the first beside the front half, each next beside the level before).
+  for (int i = 0; i < 3; ++i) {
+    const auto& stages = levels[size_t(i)].stages;
+    auto density = std::find_if(stages.begin(), stages.end(), [](const StageTiming& t) { return t.name == "density"; });
+    ASSERT_NE(density, stages.end()) << "level " << i;
+    EXPECT_NE(density->note.find("refined ahead"), std::string::npos) << "level " << i << ": " << density->note;
+  }
 
-  // Each level is the same level run alone, bit for bit.
+  // Each level is the same level run alone, bit for bit: made ahead beside
+  // the level before in the chain, beside the front half alone.
   for (int i = 0; i < 3; ++i) {
     PipelineOptions alone = small_views();
     alone.target_vertices = asked[i];

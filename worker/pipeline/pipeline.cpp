@@ -504,7 +504,8 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           }
           auto ahead = std::find_if(front.refined_ahead.begin(), front.refined_ahead.end(),
                                     [&](const auto& a) { return a.first == options.target_vertices; });
-          if (ahead != front.refined_ahead.end()) {
+          const bool made_ahead = ahead != front.refined_ahead.end();
+          if (made_ahead) {
             StatusOr<RefinedSurface> made = ahead->second.get();
             front.refined_ahead.erase(ahead);
             VPR_ASSIGN_OR_RETURN(refined, std::move(made));
@@ -528,6 +529,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           }
           note = std::string(density_mode_name(options.density)) + " density; " +
                  std::to_string(refined.mesh.vertex_count()) + " surface elements" +
+                 (made_ahead ? " (refined ahead, beside the stages before)" : "") +
                  (soup ? "; a polygon soup: the paper's back half follows" : "");
           if (!refined.pinch_copies.empty())
             note += "; " + std::to_string(refined.pinch_copies.size()) +
