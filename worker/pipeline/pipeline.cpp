@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <deque>
 #include <filesystem>
 #include <future>
@@ -19,8 +20,8 @@
 #include "debug_output.h"
 #include "eval/visual_similarity.h"
 #include "job_device.h"
-#include "surface/surface_refine.h"
 #include "part_fallback.h"
+#include "surface/surface_refine.h"
 #include "visual_target.h"
 #ifdef VPR_HAVE_CUDA
 #include "saliency/gpu_saliency.h"
@@ -70,27 +71,34 @@ class StageRunner {
   // on, and the stage's timing says "cpu" and why.
   // cpu_note: recorded when the stage runs on the CPU (e.g. why the GPU
   // version of a fused step could not be used).
+  // note (may be null): read after fn, recorded on either device (after
+  // cpu_note or the reason for a rerun, when there is one).
   template <class Fn>
-  Status run_twin(const char* name, const JobDevice& device, Fn&& fn, const std::string& cpu_note = "") {
+  Status run_twin(const char* name, const JobDevice& device, Fn&& fn, const std::string& cpu_note = "",
+                  const std::string* note = nullptr) {
+    auto with_note = [&](const std::string& first) {
+      if (!note || note->empty()) return first;
+      return first.empty() ? *note : first + "; " + *note;
+    };
     VPR_RETURN_IF_ERROR(check_cancelled(name));
     begin(name);
     const auto start = Clock::now();
     const ExecContext cpu_ctx;
     if (!device.on_gpu()) {
       Status status = fn(cpu_ctx);
-      record(name, start, "cpu", cpu_note);
+      record(name, start, "cpu", with_note(cpu_note));
       if (!status.ok()) return {status.code(), std::string(name) + ": " + status.message()};
       return Status::Ok();
     }
     Status status = fn(device.context());
     if (status.ok()) status = device.synchronize();  // the timing includes the stream's work
     if (status.ok()) {
-      record(name, start, "cuda", "");
+      record(name, start, "cuda", with_note(""));
       return Status::Ok();
     }
     const std::string why = "GPU failed (" + status.to_string() + "), reran on the CPU";
     status = fn(cpu_ctx);
-    record(name, start, "cpu", why);
+    record(name, start, "cpu", with_note(why));
     if (!status.ok()) return {status.code(), std::string(name) + ": " + status.message()};
     return Status::Ok();
   }
@@ -451,18 +459,29 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
 
   // Stage 4: the attention field (attention_field.h) on the input vertices;
   // the surface CVT's density also reuses the curvature computed here.
-  return stage.run_twin("saliency_field", device, [&](const ExecContext& c) -> Status {
-    std::vector<double>& curvature = front->curvature;
-    if (curvature_beside.valid()) curvature = curvature_beside.get();  // a CPU rerun after a GPU failure keeps it
-    if (curvature.empty()) curvature = mean_curvature(input);  // a CPU rerun after a GPU failure keeps it
-    const std::vector<float> h(curvature.begin(), curvature.end());
-    // The image cue: the front half's saliency points (stage 3), in the
-    // same normalized space as the input's vertices.
-    const FeaturePoints points{saliency_points.data(), saliency_points.size() / 3};
-    return VPR_TWIN(c, attention_field)(input.positions.data(), h.data(),
-                                        visibility.empty() ? nullptr : visibility.data(), points, input.vertex_count(),
-                                        options.attention, &result.input_importance, c);
-  });
+  std::string note;
+  return stage.run_twin(
+      "saliency_field", device,
+      [&](const ExecContext& c) -> Status {
+        std::vector<double>& curvature = front->curvature;
+        if (curvature_beside.valid()) {  // once: a CPU rerun after a GPU failure keeps it
+          const auto start = Clock::now();
+          curvature = curvature_beside.get();
+          char text[96];
+          std::snprintf(text, sizeof text, "%.1f ms waiting for the curvature (made beside stages 1-3)",
+                        ms_since(start));
+          note = text;
+        }
+        if (curvature.empty()) curvature = mean_curvature(input);
+        const std::vector<float> h(curvature.begin(), curvature.end());
+        // The image cue: the front half's saliency points (stage 3), in the
+        // same normalized space as the input's vertices.
+        const FeaturePoints points{saliency_points.data(), saliency_points.size() / 3};
+        return VPR_TWIN(c, attention_field)(input.positions.data(), h.data(),
+                                            visibility.empty() ? nullptr : visibility.data(), points,
+                                            input.vertex_count(), options.attention, &result.input_importance, c);
+      },
+      "", &note);
 }
 
 // Stages 5-7 for one level (options.target_vertices), from the front half.
@@ -532,8 +551,9 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
                  (made_ahead ? " (refined ahead, beside the stages before)" : "") +
                  (soup ? "; a polygon soup: the paper's back half follows" : "");
           if (!refined.pinch_copies.empty())
-            note += "; " + std::to_string(refined.pinch_copies.size()) +
-                    " vertices copied where sheets met only at a vertex or at an edge of more than two faces (apart there)";
+            note +=
+                "; " + std::to_string(refined.pinch_copies.size()) +
+                " vertices copied where sheets met only at a vertex or at an edge of more than two faces (apart there)";
           return Status::Ok();
         },
         &note));
@@ -541,7 +561,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       std::vector<uint32_t> label;
       CvtOptions cvt = options.cvt;
       cvt.seed = options.sampling.seed;
-      cvt.anisotropy = options.anisotropy;  // the input has a unit diagonal here
+      cvt.anisotropy = options.anisotropy;         // the input has a unit diagonal here
       cvt.joined_elements = refined.pinch_copies;  // parts split at a pinch share one equal share
       VPR_RETURN_IF_ERROR(stage.run(
           "cvt", cpu,
@@ -573,15 +593,16 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, refined.edges, label, cells, &result.mesh, &cell,
                                               &result.cluster_mesh, options.cluster_mesh));
             PartFallbackStats fallback;
-            VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, label, options.target_vertices, &result.mesh,
-                                                     &cell, &fallback));
+            VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, label, options.target_vertices,
+                                                     &result.mesh, &cell, &fallback));
             // A surface of scattered triangles that meet every which way (the
             // pipeline fuzzer makes them) can leave the dual no face: the job
             // fails with that, never returns an empty mesh as a result.
             if (result.mesh.face_count() == 0)
-              return invalid_argument("the dual of the CVT cells has no face: the input is too broken a "
-                                      "surface (scattered or crossing triangles) to remesh to " +
-                                      std::to_string(options.target_vertices) + " vertices");
+              return invalid_argument(
+                  "the dual of the CVT cells has no face: the input is too broken a "
+                  "surface (scattered or crossing triangles) to remesh to " +
+                  std::to_string(options.target_vertices) + " vertices");
             // Each output vertex: its cell's mean importance (area-weighted).
             std::vector<double> sum(cells, 0.0), weight(cells, 0.0);
             const std::vector<double> area = vertex_areas(refined.mesh);
@@ -600,8 +621,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
               note += "; " + std::to_string(fallback.parts_replaced) + " of " +
                       std::to_string(fallback.closed_parts + fallback.open_parts) +
                       " parts decimated instead (their dual lost the part's shape: opened, closed, in pieces or gone)";
-            if (fallback.parts_left > 0)
-              note += "; " + std::to_string(fallback.parts_left) + " parts came out broken";
+            if (fallback.parts_left > 0) note += "; " + std::to_string(fallback.parts_left) + " parts came out broken";
             const OffsetFitStats& fit = result.cluster_mesh.offset;
             if (fit.free_vertices > 0) {
               char text[200];
