@@ -40,13 +40,14 @@ class AttentionFieldGpu : public ::testing::Test {
   ExecContext gpu_;
 };
 
-void expect_twins_agree(const Mesh& m, const AttentionFieldOptions& o, const ExecContext& gpu,
-                        const std::string& what, FeaturePoints features = {}) {
+void expect_twins_agree(const Mesh& m, const AttentionFieldOptions& o, const ExecContext& gpu, const std::string& what,
+                        FeaturePoints features = {}) {
   const std::vector<double> hd = mean_curvature(m);
   const std::vector<float> h(hd.begin(), hd.end());
   std::vector<float> cpu_field, gpu_field;
   ASSERT_TRUE(
-      cpu::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o, &cpu_field, kCpu).ok());
+      cpu::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o, &cpu_field, kCpu)
+          .ok());
   const Status s =
       cuda::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o, &gpu_field, gpu);
   ASSERT_TRUE(s.ok()) << s.to_string();
@@ -58,6 +59,13 @@ void expect_twins_agree(const Mesh& m, const AttentionFieldOptions& o, const Exe
     worst = std::max(worst, std::abs(double(gpu_field[v]) - double(cpu_field[v])));
   }
   EXPECT_EQ(differ, 0u) << what << ": largest difference " << worst;
+  // The same with the grid and fine map made ahead (the pipeline's way).
+  const AttentionPrep prep = prepare_attention(m.positions.data(), h.data(), m.vertex_count(), o);
+  std::vector<float> prepared_field;
+  ASSERT_TRUE(cuda::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o,
+                                    &prepared_field, gpu, &prep)
+                  .ok());
+  EXPECT_EQ(prepared_field, cpu_field) << what << ", prepared ahead";
 }
 
 TEST_F(AttentionFieldGpu, EqualsCpuOnSpheresAndBunny) {
@@ -121,12 +129,11 @@ TEST_F(AttentionFieldGpu, VisibilityEqualsCpuOnRenderedViews) {
     // Views weighted towards the front and top: the same weights, summed in the same order.
     VisibilityOptions weighted;
     weighted.view_bias = 0.75f;
-    ASSERT_TRUE(cpu::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, weighted, &cpu_vis,
-                                     kCpu)
-                    .ok());
-    ASSERT_TRUE(cuda::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, weighted, &gpu_vis,
-                                      gpu_)
-                    .ok());
+    ASSERT_TRUE(
+        cpu::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, weighted, &cpu_vis, kCpu).ok());
+    ASSERT_TRUE(
+        cuda::view_visibility(mesh.positions.data(), mesh.vertex_count(), *views, shots, weighted, &gpu_vis, gpu_)
+            .ok());
     EXPECT_EQ(gpu_vis, cpu_vis) << count << " views, weighted";
   }
 }
@@ -138,13 +145,15 @@ TEST_F(AttentionFieldGpu, RefusesLikeCpuAndRunsOutOfBudgetCleanly) {
   std::vector<float> field;
   AttentionFieldOptions bad;
   bad.curvature_cap = 0.5f;
-  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), bad, &field, gpu_).code(),
-            StatusCode::kInvalidArgument);
+  EXPECT_EQ(
+      cuda::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), bad, &field, gpu_).code(),
+      StatusCode::kInvalidArgument);
   DeviceBudget tiny;
   tiny.limit = 64;
   const ExecContext small{Device::kCuda, gpu_.stream, &tiny};
-  EXPECT_EQ(cuda::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), {}, &field, small).code(),
-            StatusCode::kResourceExhausted);
+  EXPECT_EQ(
+      cuda::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), {}, &field, small).code(),
+      StatusCode::kResourceExhausted);
   EXPECT_EQ(tiny.used.load(), 0u);
 }
 

@@ -210,9 +210,10 @@ TEST(AttentionField, FeaturePointsNearARegionRaiseIt) {
   o.image_cue = true;
   const FeaturePoints features{points.data(), points.size() / 3};
   std::vector<float> with, without, off;
-  ASSERT_TRUE(cpu::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o, &with, kCpu)
-                  .ok());
-  ASSERT_TRUE(cpu::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), o, &without, kCpu).ok());
+  ASSERT_TRUE(
+      cpu::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o, &with, kCpu).ok());
+  ASSERT_TRUE(
+      cpu::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), o, &without, kCpu).ok());
   AttentionFieldOptions no_cue = o;
   no_cue.image_cue = false;
   ASSERT_TRUE(
@@ -251,6 +252,33 @@ TEST(AttentionField, FrontTopBiasOrdersAUniformSphere) {
   auto flat = field_of(m, off);
   ASSERT_TRUE(flat.ok());
   EXPECT_LT(std::abs(mean_over(*flat, front) - mean_over(*flat, back)), 0.15);
+}
+
+// The grid and fine map made ahead (prepare_attention, as the pipeline does
+// beside stages 1-3) give the field the twin gives making them itself, bit
+// for bit, with and without the image cue; a bump makes the field uneven, so
+// a mix-up of grids or maps would show.
+TEST(AttentionField, PreparedGridAndMapGiveTheSameField) {
+  const Mesh m = bumped_sphere({0.0f, 0.6f, 0.8f}, 0.08f, 0.25f);
+  const std::vector<float> h = curvature_of(m);
+  std::vector<float> points;
+  for (size_t v = 0; v < m.vertex_count(); v += 7)
+    points.insert(points.end(), &m.positions[3 * v], &m.positions[3 * v + 3]);
+  AttentionFieldOptions with_cue;
+  with_cue.image_cue = true;
+  for (const AttentionFieldOptions& o : {AttentionFieldOptions{}, with_cue}) {
+    const FeaturePoints features{points.data(), points.size() / 3};
+    std::vector<float> own, given;
+    ASSERT_TRUE(
+        cpu::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o, &own, kCpu).ok());
+    const AttentionPrep prep = prepare_attention(m.positions.data(), h.data(), m.vertex_count(), o);
+    ASSERT_TRUE(
+        cpu::attention_field(m.positions.data(), h.data(), nullptr, features, m.vertex_count(), o, &given, kCpu, &prep)
+            .ok());
+    EXPECT_EQ(given, own) << (o.image_cue ? "with" : "without") << " the image cue";
+    const auto [lo, hi] = std::minmax_element(own.begin(), own.end());
+    EXPECT_LT(*lo + 0.5f, *hi);  // an uneven field
+  }
 }
 
 TEST(AttentionField, RefusesBadOptionsAndHandlesNoVertices) {

@@ -334,15 +334,29 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   result.cpu_reason = device.cpu_reason();
   StageRunner stage(options, &result, kFrontHalf);
 
-  // The attention field's mean curvature needs only the input: it runs on the
-  // host beside stages 1-3 (the renderer and the image saliency leave the
-  // host's cores mostly idle, on the GPU and with llvmpipe alike), and stage 4
-  // waits for it. The same bits either way (mean_curvature is deterministic).
-  // An early return waits for it in the future's destructor, while `input`
+  // The attention field's mean curvature, and what the field makes from it
+  // alone (its vertex grid and fine cue map: prepare_attention), need only
+  // the input: they run on the host beside stages 1-3 (the renderer and the
+  // image saliency leave the host's cores mostly idle, on the GPU and with
+  // llvmpipe alike), and stage 4 waits for them. The same bits either way.
+  // An early return waits for them in the future's destructor, while `input`
   // still lives.
-  std::future<std::vector<double>> curvature_beside;
+  struct CurvatureAhead {
+    std::vector<double> curvature;
+    std::vector<float> h;  // as floats, the field's input
+    AttentionPrep prep;    // empty when the field's options are bad (the stage reports them)
+  };
+  std::future<CurvatureAhead> curvature_beside;
   if (options.density != DensityMode::kPaper && front->curvature.empty())
-    curvature_beside = std::async(std::launch::async, [&input] { return mean_curvature(input); });
+    curvature_beside = std::async(std::launch::async, [&input, &options] {
+      CurvatureAhead a;
+      a.curvature = mean_curvature(input);
+      a.h.assign(a.curvature.begin(), a.curvature.end());
+      if (check_attention_field_args(options.attention, input.vertex_count(), a.h.data()).ok())
+        a.prep = prepare_attention(input.positions.data(), a.h.data(), input.vertex_count(), options.attention);
+      return a;
+    });
+  CurvatureAhead ahead;
 
   // Stage 1: cameras and snapshots.
   std::vector<View> views;
@@ -466,20 +480,24 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
         std::vector<double>& curvature = front->curvature;
         if (curvature_beside.valid()) {  // once: a CPU rerun after a GPU failure keeps it
           const auto start = Clock::now();
-          curvature = curvature_beside.get();
-          char text[96];
-          std::snprintf(text, sizeof text, "%.1f ms waiting for the curvature (made beside stages 1-3)",
+          ahead = curvature_beside.get();
+          curvature = std::move(ahead.curvature);
+          char text[112];
+          std::snprintf(text, sizeof text, "%.1f ms waiting for the curvature and grid (made beside stages 1-3)",
                         ms_since(start));
           note = text;
         }
         if (curvature.empty()) curvature = mean_curvature(input);
-        const std::vector<float> h(curvature.begin(), curvature.end());
+        const bool prepared = !ahead.prep.fine.empty() && ahead.prep.fine.size() == input.vertex_count();
+        std::vector<float> h_own;
+        if (!prepared) h_own.assign(curvature.begin(), curvature.end());
+        const float* h = prepared ? ahead.h.data() : h_own.data();
         // The image cue: the front half's saliency points (stage 3), in the
         // same normalized space as the input's vertices.
         const FeaturePoints points{saliency_points.data(), saliency_points.size() / 3};
-        return VPR_TWIN(c, attention_field)(input.positions.data(), h.data(),
-                                            visibility.empty() ? nullptr : visibility.data(), points,
-                                            input.vertex_count(), options.attention, &result.input_importance, c);
+        return VPR_TWIN(c, attention_field)(input.positions.data(), h, visibility.empty() ? nullptr : visibility.data(),
+                                            points, input.vertex_count(), options.attention, &result.input_importance,
+                                            c, prepared ? &ahead.prep : nullptr);
       },
       "", &note);
 }

@@ -89,9 +89,11 @@ Status check_attention_field_args(const AttentionFieldOptions& o, size_t vertex_
     return invalid_argument("attention field: min_importance = " + std::to_string(o.min_importance) +
                             ", it must lie in (0, 1]");
   if (vertex_count > 0 && curvature == nullptr) return invalid_argument("attention field: no curvature given");
-  if (features.count > 0 && features.xyz == nullptr) return invalid_argument("attention field: feature points are null");
+  if (features.count > 0 && features.xyz == nullptr)
+    return invalid_argument("attention field: feature points are null");
   if (features.count >= (size_t(1) << 31))
-    return resource_exhausted("attention field: " + std::to_string(features.count) + " feature points, the limit is 2^31");
+    return resource_exhausted("attention field: " + std::to_string(features.count) +
+                              " feature points, the limit is 2^31");
   if (vertex_count >= (size_t(1) << 31))
     return resource_exhausted("attention field: " + std::to_string(vertex_count) + " vertices, the limit is 2^31");
   return Status::Ok();
@@ -172,10 +174,18 @@ VertexGrid bin_points(const VertexGrid& shape, const float* points, size_t count
   return g;
 }
 
-void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, const float* density,
-                            const float* visibility, size_t n, const AttentionFieldOptions& o,
+AttentionPrep prepare_attention(const float* vertices, const float* curvature, size_t n,
+                                const AttentionFieldOptions& options) {
+  AttentionPrep prep;
+  prep.grid = build_vertex_grid(vertices, curvature, n, options);
+  prep.fine = over_median(curvature, n, options.curvature_cap);
+  return prep;
+}
+
+void finish_attention_field(const float* vertices, const std::vector<double>& fine, const float* coarse,
+                            const float* density, const float* visibility, size_t n, const AttentionFieldOptions& o,
                             std::vector<float>* importance) {
-  const std::vector<double> fine = over_median(curvature, n, o.curvature_cap);
+  assert(fine.size() == n);
   const std::vector<double> wide = over_median(coarse, n, o.curvature_cap);
   // The image cue over its median (of the vertices near any feature when most
   // are near none), capped like the curvature maps; all three averaged.
@@ -221,12 +231,15 @@ namespace cpu {
 
 Status attention_field(const float* vertices, const float* curvature, const float* visibility, FeaturePoints features,
                        size_t n, const AttentionFieldOptions& options, std::vector<float>* importance,
-                       const ExecContext&) {
+                       const ExecContext&, const AttentionPrep* prep) {
   assert(importance != nullptr);
   VPR_RETURN_IF_ERROR(check_attention_field_args(options, n, curvature, features));
   importance->clear();
   if (n == 0) return Status::Ok();
-  const VertexGrid grid = build_vertex_grid(vertices, curvature, n, options);
+  AttentionPrep own;
+  if (!prep) own = prepare_attention(vertices, curvature, n, options);
+  const VertexGrid& grid = prep ? prep->grid : own.grid;
+  assert(grid.order.size() == n);
   std::vector<float> coarse(n);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t v = r.begin(); v != r.end(); ++v)
@@ -239,13 +252,13 @@ Status attention_field(const float* vertices, const float* curvature, const floa
     density.resize(n);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t v = r.begin(); v != r.end(); ++v)
-        density[v] = feature_point_density(points.sorted.data(), points.cell_start.data(), points.lo, points.cell,
-                                           points.dims, vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2],
-                                           points.sigma);
+        density[v] =
+            feature_point_density(points.sorted.data(), points.cell_start.data(), points.lo, points.cell, points.dims,
+                                  vertices[3 * v], vertices[3 * v + 1], vertices[3 * v + 2], points.sigma);
     });
   }
-  finish_attention_field(vertices, curvature, coarse.data(), density.empty() ? nullptr : density.data(), visibility,
-                         n, options, importance);
+  finish_attention_field(vertices, prep ? prep->fine : own.fine, coarse.data(),
+                         density.empty() ? nullptr : density.data(), visibility, n, options, importance);
   return Status::Ok();
 }
 

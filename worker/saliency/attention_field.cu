@@ -43,12 +43,15 @@ __global__ void feature_density_kernel(const float* vertices, uint32_t n, const 
 
 Status attention_field(const float* vertices, const float* curvature, const float* visibility, FeaturePoints features,
                        size_t n, const AttentionFieldOptions& options, std::vector<float>* importance,
-                       const ExecContext& ctx) {
+                       const ExecContext& ctx, const AttentionPrep* prep) {
   assert(importance != nullptr);
   VPR_RETURN_IF_ERROR(check_attention_field_args(options, n, curvature, features));
   importance->clear();
   if (n == 0) return Status::Ok();
-  const VertexGrid grid = build_vertex_grid(vertices, curvature, n, options);
+  AttentionPrep own;
+  if (!prep) own = prepare_attention(vertices, curvature, n, options);
+  const VertexGrid& grid = prep ? prep->grid : own.grid;
+  assert(grid.order.size() == n);
   GridShape shape;
   for (int a = 0; a < 3; ++a) {
     shape.lo[a] = grid.lo[a];
@@ -86,8 +89,8 @@ Status attention_field(const float* vertices, const float* curvature, const floa
     VPR_RETURN_IF_ERROR(d_density.download(density.data(), n));
   }
   VPR_CUDA_TRY(cudaStreamSynchronize(stream));
-  finish_attention_field(vertices, curvature, coarse.data(), density.empty() ? nullptr : density.data(), visibility,
-                         n, options, importance);
+  finish_attention_field(vertices, prep ? prep->fine : own.fine, coarse.data(), density.empty() ? nullptr : density.data(),
+                         visibility, n, options, importance);
   return Status::Ok();
 }
 

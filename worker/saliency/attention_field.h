@@ -167,12 +167,24 @@ VPR_HD inline float feature_point_density(const float* sorted, const uint32_t* c
   return float(weight);
 }
 
+// What the field needs from the vertices and their curvature alone: the
+// vertex grid and the fine cue map (|H| over its median, capped). A caller
+// that has the curvature early makes it ahead (the pipeline, beside stages
+// 1-3) and hands it to attention_field; otherwise the twins make it.
+struct AttentionPrep {
+  VertexGrid grid;
+  std::vector<double> fine;
+};
+AttentionPrep prepare_attention(const float* vertices, const float* curvature, size_t vertex_count,
+                                const AttentionFieldOptions& options);
+
 // The raw cue of every vertex and its rank normalization (the host part of
-// both twins): coarse = coarse_curvature_mean per vertex (original order);
-// density = feature_point_density per vertex, or null without feature points.
-void finish_attention_field(const float* vertices, const float* curvature, const float* coarse, const float* density,
-                            const float* visibility, size_t vertex_count, const AttentionFieldOptions& options,
-                            std::vector<float>* importance);
+// both twins): fine = prepare_attention's map; coarse =
+// coarse_curvature_mean per vertex (original order); density =
+// feature_point_density per vertex, or null without feature points.
+void finish_attention_field(const float* vertices, const std::vector<double>& fine, const float* coarse,
+                            const float* density, const float* visibility, size_t vertex_count,
+                            const AttentionFieldOptions& options, std::vector<float>* importance);
 
 namespace cpu {
 
@@ -183,9 +195,11 @@ namespace cpu {
 // of views that see the vertex, visibility.h). features: the image cue's
 // points, or none (the field is then curvature, bias and visibility only).
 // importance: #V values in [min_importance, 1]. No vertices: an empty field.
+// prep: null, or prepare_attention(vertices, curvature, #V, options)'s
+// result, the same bits as the twin making it.
 Status attention_field(const float* vertices, const float* curvature, const float* visibility, FeaturePoints features,
                        size_t vertex_count, const AttentionFieldOptions& options, std::vector<float>* importance,
-                       const ExecContext& ctx);
+                       const ExecContext& ctx, const AttentionPrep* prep = nullptr);
 
 }  // namespace cpu
 
@@ -196,7 +210,7 @@ namespace cuda {
 
 Status attention_field(const float* vertices, const float* curvature, const float* visibility, FeaturePoints features,
                        size_t vertex_count, const AttentionFieldOptions& options, std::vector<float>* importance,
-                       const ExecContext& ctx);
+                       const ExecContext& ctx, const AttentionPrep* prep = nullptr);
 
 }  // namespace cuda
 }  // namespace vpr
