@@ -294,7 +294,7 @@ struct FrontHalf {
 };
 
 // Stray vertices and parts the user asked to drop leave the input; the rest
-// is normalized. Sets front->input, used, norm and the counts.
+// is normalized. Sets front->input, used, norm, the face areas and the counts.
 Status prepare_input(const Mesh& given, const PipelineOptions& options, FrontHalf* front) {
   // Vertices no face uses (exporters leave them behind) take no part: not in
   // the framing, the orientation, the field or the sampling.
@@ -314,6 +314,8 @@ Status prepare_input(const Mesh& given, const PipelineOptions& options, FrontHal
   }
   VPR_ASSIGN_OR_RETURN(front->input,
                        normalized_copy(ignored > 0 || dropped_parts > 0 ? compacted : given, &front->norm));
+  front->areas = face_areas(front->input);
+  for (double a : front->areas) front->area += a;
   front->given_vertices = given.vertex_count();
   front->shared.ignored_vertices = ignored;
   front->shared.dropped_parts = dropped_parts;
@@ -466,8 +468,6 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   features.clear();
   view_points.clear();
 
-  front->areas = face_areas(input);
-  for (double a : front->areas) front->area += a;
   front->mean_edge = mean_edge_length(input);
   if (options.density == DensityMode::kPaper) return Status::Ok();  // its field is the back half's
 
@@ -851,11 +851,9 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
   // level's runs beside the front half (as the curvature does), each next
   // one's beside the level before it, and the level's density stage takes
   // it, the same bits as refining there.
-  double area = 0;
-  for (double a : face_areas(front.input)) area += a;  // the same sum as the front half's
   auto refine_ahead = [&](size_t level) {
     if (level >= levels.size() || levels[level].min_ssim > 0 || options.density == DensityMode::kPaper) return;
-    const double max_edge = refine_max_edge(target_spacing(area, counts[level]), options);
+    const double max_edge = refine_max_edge(target_spacing(front.area, counts[level]), options);
     const size_t limit = refine_limit(front.input, counts[level], options);
     const Mesh* input = &front.input;
     front.refined_ahead.emplace_back(counts[level], std::async(std::launch::async, [input, max_edge, limit] {
