@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -77,6 +78,68 @@ TEST_F(AttentionFieldGpu, EqualsCpuOnSpheresAndBunny) {
   auto bunny = read_mesh("../shared/models/bunny.obj");
   if (!bunny.ok()) GTEST_SKIP() << "../shared/models/bunny.obj not found";
   expect_twins_agree(*bunny, {}, gpu_, "bunny");
+}
+
+// The cue maps and ranks run on the device too (attention_finish.cu): the
+// same bits as the host's on the cases its medians and tie rule must get
+// right: many equal values (one run of every vertex; a flat box whose faces
+// have |H| = 0, so the coarse map's median is 0 and its positive values'
+// median is used), non-finite curvature (+inf, NaN), visibility with zeros,
+// -0.0, NaN and values outside [0, 1], and a single vertex.
+std::vector<float> field_of(bool gpu_twin, const std::vector<float>& xyz, const std::vector<float>& h,
+                            const std::vector<float>& visibility, const AttentionFieldOptions& o,
+                            const ExecContext& gpu) {
+  std::vector<float> field;
+  const float* vis = visibility.empty() ? nullptr : visibility.data();
+  const size_t n = h.size();
+  const Status s = gpu_twin ? cuda::attention_field(xyz.data(), h.data(), vis, {}, n, o, &field, gpu)
+                            : cpu::attention_field(xyz.data(), h.data(), vis, {}, n, o, &field, kCpu);
+  EXPECT_TRUE(s.ok()) << s.to_string();
+  return field;
+}
+
+TEST_F(AttentionFieldGpu, MapsAndRanksEqualCpuOnTiesZerosAndNonFiniteValues) {
+  const Mesh sphere = testing::icosphere(4);
+  const size_t n = sphere.vertex_count();
+  const std::vector<float>& xyz = sphere.positions;
+  AttentionFieldOptions flat;
+  flat.view_bias = 0;
+  // Every vertex the same raw value: one run, every vertex at the middle rank.
+  const std::vector<float> same(n, 2.0f);
+  const std::vector<float> one_run = field_of(true, xyz, same, {}, flat, gpu_);
+  EXPECT_EQ(one_run, field_of(false, xyz, same, {}, flat, gpu_)) << "one run of equal values";
+  ASSERT_EQ(one_run.size(), n);
+  EXPECT_FLOAT_EQ(one_run[0], 0.2f + 0.8f * 0.5f);
+  // Mostly zero curvature (the coarse map's median 0), a few spikes, +inf and NaN.
+  std::vector<float> h(n, 0.0f);
+  for (size_t v = 0; v < n; v += 17) h[v] = 0.5f + float(v % 5);
+  h[3] = std::numeric_limits<float>::infinity();
+  h[8] = std::numeric_limits<float>::quiet_NaN();
+  std::vector<float> visibility(n);
+  for (size_t v = 0; v < n; ++v) visibility[v] = float(v % 7) / 5.0f;  // 0 .. 1.2
+  visibility[1] = -0.0f;
+  visibility[2] = -0.5f;
+  visibility[5] = std::numeric_limits<float>::quiet_NaN();
+  for (const AttentionFieldOptions& o : {AttentionFieldOptions{}, flat}) {
+    EXPECT_EQ(field_of(true, xyz, h, {}, o, gpu_), field_of(false, xyz, h, {}, o, gpu_)) << "zeros and spikes";
+    EXPECT_EQ(field_of(true, xyz, h, visibility, o, gpu_), field_of(false, xyz, h, visibility, o, gpu_))
+        << "with visibility";
+  }
+  // All zero: both references 0, every map 1.
+  const std::vector<float> zero(n, 0.0f);
+  EXPECT_EQ(field_of(true, xyz, zero, visibility, {}, gpu_), field_of(false, xyz, zero, visibility, {}, gpu_));
+  // A flat-faced box (|H| 0 inside its faces, large on its edges).
+  Mesh box = testing::icosphere(3);
+  for (float& c : box.positions) c = std::clamp(c * 1.6f, -1.0f, 1.0f);
+  const std::vector<double> box_hd = mean_curvature(box);
+  const std::vector<float> box_h(box_hd.begin(), box_hd.end());
+  EXPECT_EQ(field_of(true, box.positions, box_h, {}, {}, gpu_), field_of(false, box.positions, box_h, {}, {}, gpu_))
+      << "box";
+  // One vertex: the maximum.
+  const std::vector<float> lone_xyz = {0.5f, 0.25f, 0.0f}, lone_h = {1.0f};
+  const std::vector<float> lone = field_of(true, lone_xyz, lone_h, {}, {}, gpu_);
+  EXPECT_EQ(lone, field_of(false, lone_xyz, lone_h, {}, {}, gpu_));
+  EXPECT_EQ(lone, std::vector<float>{1.0f});
 }
 
 // With the image cue: the weighted counts of feature points (feature_point_density)

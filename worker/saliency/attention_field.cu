@@ -2,12 +2,14 @@
 // means of |H| and weighted counts of feature points over the host-built
 // grids, one thread a vertex, with the same arithmetic as the CPU twin
 // (coarse_curvature_mean, feature_point_density, compiled without FMA
-// contraction); the rank normalization stays on the host.
+// contraction); then the cue maps and the rank normalization on the device
+// as well (attention_finish.cu), so only the field comes back.
 #include <cassert>
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
 #include "saliency/attention_field.h"
+#include "saliency/attention_finish.cuh"
 
 namespace vpr::cuda {
 namespace {
@@ -59,7 +61,7 @@ Status attention_field(const float* vertices, const float* curvature, const floa
   }
   shape.cell = grid.cell;
 
-  DeviceBuffer<float> d_vertices, d_sorted, d_coarse;
+  DeviceBuffer<float> d_sorted, d_coarse;
   DeviceBuffer<uint32_t> d_cell_start, d_order;
   VPR_RETURN_IF_ERROR(d_sorted.upload(grid.sorted.data(), grid.sorted.size(), ctx));
   VPR_RETURN_IF_ERROR(d_order.upload(grid.order.data(), grid.order.size(), ctx));
@@ -69,11 +71,8 @@ Status attention_field(const float* vertices, const float* curvature, const floa
   coarse_curvature_kernel<<<blocks_for(n), kBlock, 0, stream>>>(d_order.get(), uint32_t(n), d_sorted.get(),
                                                                 d_cell_start.get(), shape, grid.sigma, d_coarse.get());
   VPR_CUDA_LAUNCHED("coarse_curvature_kernel");
-  std::vector<float> coarse(n);
-  VPR_RETURN_IF_ERROR(d_coarse.download(coarse.data(), n));
-  std::vector<float> density;
-  VertexGrid points;  // host copies live until the stream is synchronized
-  DeviceBuffer<float> d_points, d_density;
+  VertexGrid points;  // host copies live until the stream is synchronized (the finish does)
+  DeviceBuffer<float> d_vertices, d_points, d_density;
   DeviceBuffer<uint32_t> d_point_start;
   if (use_image_cue(options, features)) {
     VPR_RETURN_IF_ERROR(d_vertices.upload(vertices, 3 * n, ctx));
@@ -85,13 +84,11 @@ Status attention_field(const float* vertices, const float* curvature, const floa
                                                                  d_point_start.get(), shape, points.sigma,
                                                                  d_density.get());
     VPR_CUDA_LAUNCHED("feature_density_kernel");
-    density.resize(n);
-    VPR_RETURN_IF_ERROR(d_density.download(density.data(), n));
   }
-  VPR_CUDA_TRY(cudaStreamSynchronize(stream));
-  finish_attention_field(vertices, prep ? prep->fine : own.fine, coarse.data(), density.empty() ? nullptr : density.data(),
-                         visibility, n, options, importance);
-  return Status::Ok();
+  // The maps, the raw cue and the ranks on the device too (attention_finish.cuh).
+  return finish_attention_on_device(d_sorted.get(), d_order.get(), d_coarse.get(),
+                                    d_density.size() ? d_density.get() : nullptr, prep ? prep->fine : own.fine,
+                                    visibility, n, options, importance, ctx);
 }
 
 }  // namespace vpr::cuda
