@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs ON the device machine (NVIDIA H100), from the repository root, with
 # .pack/ (scripts/device-bundle.sh) and .gl/ (the GL loader debs) carried:
-#   scripts/device-run.sh [tests|bench|all|suite|load|queue|isolation|density|targets] [bench arguments...]
+#   scripts/device-run.sh [tests|bench|all|suite|load|queue|isolation|density|targets|field] [bench arguments...]
 # Writes under $OUT: device.txt, gpu-tests.log, bench.md; `load` (not part of
 # all) writes load.md: vpremesh-server with --device cuda and 1, 2, 4 workers,
 # driven by `vpremesh bench` closed and open loop (scripts/bench-load.sh);
@@ -81,6 +81,45 @@ if [ "$mode" = targets ]; then
     for t in 1000 5000 $((2 * v)); do echo "$m $t"; done
   done | xargs -P "${JOBS:-12}" -L 1 sh -c '.bundle/bin/vpremesh local "$0" -o /tmp/t-$(basename "$0")-$1.ply -n "$1" >/dev/null 2>/tmp/t-$(basename "$0")-$1.err; echo "$(basename "$0") $1 exit $?"' |
     sort | tee "$OUT/targets.txt"
+fi
+if [ "$mode" = field ]; then
+  # Issue 24's speed goal, paired: ROUNDS fresh processes each way, alternating,
+  # the attention field (the default) against the paper's (--density paper);
+  # the field's stages summed per run (views, image_saliency, unproject,
+  # visibility, saliency_field: the render, the same work either way and
+  # carrying the GL start-up, left out). Medians, ms, to field.md.
+  M=${MODEL:-.bundle/models/igea.ply} T=${TARGET:-10000} R=${ROUNDS:-7}
+  stage_ms() { awk -v want="$2" '/"ms":/ {gsub(/[",]/, "", $2); ms = $2}
+    /"name":/ {gsub(/[",]/, "", $2); if ($2 == want && !done) {print ms; done = 1}}' "$1"; }
+  median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
+  for r in $(seq "$R"); do
+    for f in attention paper; do
+      extra=(); [ $f = paper ] && extra=(--density paper)
+      .bundle/bin/vpremesh local "$M" -n "$T" -o /tmp/field-$f.ply --json "${extra[@]}" >/tmp/field-$f-$r.json 2>/dev/null
+    done
+  done
+  {
+    echo "| field | views | image_saliency | unproject | visibility | saliency_field | sum without render | render |"
+    echo "|---|---:|---:|---:|---:|---:|---:|---:|"
+    for f in attention paper; do
+      row="| $f |"
+      for s in views image_saliency unproject visibility saliency_field sum render; do
+        m=$(for r in $(seq "$R"); do
+          j=/tmp/field-$f-$r.json
+          if [ $s = sum ]; then
+            for t in views image_saliency unproject visibility saliency_field; do stage_ms "$j" $t; done |
+              awk '{s += $1} END {printf "%.2f\n", s}'
+          else
+            v=$(stage_ms "$j" $s)
+            echo "${v:-0}"
+          fi
+        done | median)
+        row="$row $m |"
+      done
+      echo "$row"
+    done
+    grep -o '"note": "[^"]*waiting[^"]*"' /tmp/field-attention-1.json || true
+  } | tee "$OUT/field.md"
 fi
 if [ "$mode" = queue ]; then
   PATH=$PWD/.bundle/bin:$PATH BIN=.bundle/bin DEVICE=cuda RENDERER=egl PROCS="${PROCS:-2 4}" \

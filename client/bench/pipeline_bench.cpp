@@ -9,8 +9,10 @@
 //   3. with --concurrency C: throughput of C jobs at once against one at a time.
 // MODEL may end in @1M (or @<N>M): the model midpoint-subdivided to at least
 // N million triangles. Prints Markdown tables; progress goes to stderr.
-//   vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N]
+//   vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]
 //                  [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...
+// --density: the jobs' density mode (uniform, curvature, perception, paper;
+// the pipeline's default when not given).
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -19,6 +21,7 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -27,6 +30,7 @@
 #include "peers/peers.h"
 #include "pipeline/pipeline.h"
 #include "subdivide.h"
+#include "surface/surface_density.h"
 
 namespace {
 
@@ -44,6 +48,7 @@ struct Args {
   std::vector<vpr::DevicePolicy> devices{vpr::DevicePolicy::kCpu};
   int repeat = 3, threads = 0, concurrency = 0, jobs = 0;
   std::string peers = "all";
+  std::optional<vpr::DensityMode> density;
   std::vector<std::pair<std::string, uint32_t>> inputs;
 };
 
@@ -62,7 +67,8 @@ struct JobTimes {
   size_t out_vertices = 0;
 };
 
-vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::Renderer* renderer) {
+vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::Renderer* renderer,
+                                 std::optional<vpr::DensityMode> density) {
   JobTimes t;
   const auto start = Clock::now();
   auto mesh = vpr::parse_mesh(in.draco.data(), in.draco.size(), vpr::MeshFormat::kDraco);
@@ -72,6 +78,7 @@ vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::
   options.target_vertices = in.target;
   options.device = device;
   options.shared_renderer = renderer;
+  if (density) options.density = *density;
   auto result = vpr::run_pipeline(*mesh, options);
   if (!result.ok()) return result.status();
   const auto encode_start = Clock::now();
@@ -105,6 +112,13 @@ int parse_args(int argc, char** argv, Args* a) {
       a->repeat = std::max(1, std::stoi(next()));
     } else if (s == "--threads") {
       a->threads = std::stoi(next());
+    } else if (s == "--density") {
+      auto mode = vpr::parse_density_mode(next());
+      if (!mode.ok()) {
+        std::fprintf(stderr, "%s\n", mode.status().to_string().c_str());
+        return 2;
+      }
+      a->density = *mode;
     } else if (s == "--peers") {
       a->peers = next();
     } else if (s == "--concurrency") {
@@ -157,8 +171,8 @@ int main(int argc, char** argv) {
   Args args;
   if (parse_args(argc, argv, &args) != 0) {
     std::fprintf(stderr,
-                 "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--peers all|none|LIST]\n"
-                 "                      [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
+                 "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]\n"
+                 "                      [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
     return 2;
   }
   std::unique_ptr<tbb::global_control> limit;
@@ -194,14 +208,14 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < inputs.size(); ++i) {
     const Input& in = inputs[i];
     for (vpr::DevicePolicy device : args.devices) {
-      auto warm = run_job(in, device, renderer->get());
+      auto warm = run_job(in, device, renderer->get(), args.density);
       if (!warm.ok()) {
         std::fprintf(stderr, "%s on %s: %s\n", in.name.c_str(), device_label(device), warm.status().to_string().c_str());
         continue;
       }
       std::vector<JobTimes> runs;
       for (int r = 0; r < args.repeat; ++r) {
-        auto t = run_job(in, device, renderer->get());
+        auto t = run_job(in, device, renderer->get(), args.density);
         if (t.ok()) runs.push_back(std::move(t).value());
       }
       if (runs.empty()) continue;
@@ -260,14 +274,14 @@ int main(int argc, char** argv) {
         for (int c : {1, args.concurrency}) {
           std::vector<std::unique_ptr<vpr::Renderer>> renderers;
           for (int i = 0; i < c; ++i) renderers.push_back(std::move(vpr::create_renderer(vpr::RendererKind::kAuto)).value());
-          for (int i = 0; i < c; ++i) (void)run_job(in, device, renderers[i].get());  // warm each thread's renderer
+          for (int i = 0; i < c; ++i) (void)run_job(in, device, renderers[i].get(), args.density);  // warm each thread's renderer
           std::atomic<int> next{0}, failed{0};
           const auto start = Clock::now();
           std::vector<std::thread> pool;
           for (int i = 0; i < c; ++i)
             pool.emplace_back([&, i] {
               while (next.fetch_add(1) < jobs)
-                if (!run_job(in, device, renderers[i].get()).ok()) ++failed;
+                if (!run_job(in, device, renderers[i].get(), args.density).ok()) ++failed;
             });
           for (auto& t : pool) t.join();
           const double wall = ms_since(start) / 1000.0;
