@@ -31,8 +31,9 @@
 //
 // Every vertex's value is independent work over a uniform grid of cells two
 // coarse scales wide (the weights' support), shared by both twins; the GPU
-// twin runs the per-vertex weighted averages, the rank normalization stays on
-// the host.
+// twin runs the per-vertex weighted averages and then the maps and the rank
+// normalization on the device (attention_finish.cuh), the CPU twin
+// finish_attention_field.
 #pragma once
 
 #include <cstddef>
@@ -204,8 +205,8 @@ Status attention_field(const float* vertices, const float* curvature, const floa
 }  // namespace cpu
 
 // GPU twin, built when VPR_HAVE_CUDA (attention_field.cu): the same contract;
-// the weighted means run on ctx's stream, in the same order and float
-// arithmetic as on the CPU, so the field is identical.
+// the weighted means, maps and ranks run on ctx's stream, in the same order
+// and arithmetic as on the CPU, so the field is identical.
 namespace cuda {
 
 Status attention_field(const float* vertices, const float* curvature, const float* visibility, FeaturePoints features,
