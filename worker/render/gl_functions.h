@@ -46,7 +46,7 @@ struct Functions {
   decltype(&::glDisableClientState) DisableClientState = nullptr;
   decltype(&::glVertexPointer) VertexPointer = nullptr;
   decltype(&::glColorPointer) ColorPointer = nullptr;
-  decltype(&::glDrawArrays) DrawArrays = nullptr;
+  decltype(&::glDrawElements) DrawElements = nullptr;
   decltype(&::glPixelStorei) PixelStorei = nullptr;
   decltype(&::glReadBuffer) ReadBuffer = nullptr;
   decltype(&::glReadPixels) ReadPixels = nullptr;
@@ -93,7 +93,7 @@ void destroy_framebuffer(const Functions& gl, Framebuffer* fb);
 
 // The shared part of every backend: with a context current whose bound draw
 // framebuffer holds at least each view's width x height, shades the mesh
-// (flat, two-sided headlight, see snapshot.cpp) from each view and reads back
+// (smooth corner normals, two-sided headlight, see snapshot.cpp) from each view and reads back
 // gray, depth and coverage with row 0 at the top.
 // Wall times of one render_views call, milliseconds.
 struct RenderBreakdown {

@@ -53,7 +53,7 @@ constexpr double kSmoothingAngleDeg = 60;   // faces meeting at a sharper angle 
 constexpr double kAmbient = 0.15;           // gray floor, so grazing faces stay distinct from background
 constexpr double kLightTiltDegrees = 25.0;  // headlight tilt toward the view's upper left
 constexpr GLenum kMultisample = 0x809D;     // GL_MULTISAMPLE (GL 1.3)
-// Vertices per glDrawArrays call: keeps any one call well inside driver limits
+// Indices per glDrawElements call: keeps any one call well inside driver limits
 // for meshes of tens of millions of faces.
 constexpr GLsizei kDrawChunk = 3 * (1 << 20);
 
@@ -80,8 +80,21 @@ Vec3d unit(Vec3d v) {
 // of corner k of face f averages the area-weighted normals of the faces around
 // that position that lie within kSmoothingAngleDeg of f's, each flipped to f's
 // side first. kept_faces: the #K non-degenerate faces drawn; face_normals and
-// area_normals (cross products, length = 2 area) are theirs. Returns #K x 3.
-std::vector<Vec3> corner_normals(const Mesh& mesh, const std::vector<uint32_t>& kept_faces,
+// area_normals (cross products, length = 2 area) are theirs.
+//
+// The corners are then shared: the corners at one welded position whose
+// normals are equal, or opposite (the same |n . l|, so the same gray), are
+// one vertex of the draw. On a smooth closed mesh that is one vertex per
+// input vertex instead of six corners, so the per-view shading, its upload
+// and the renderer's vertex work fall about six-fold, and every triangle is
+// drawn with the same corner values as before.
+struct ShadingVertices {
+  std::vector<uint32_t> corner;  // per shared vertex: the first corner (3 k + i) it stands for
+  std::vector<Vec3> normal;      // per shared vertex
+  std::vector<uint32_t> index;   // #K x 3: each corner's shared vertex
+};
+
+ShadingVertices shading_vertices(const Mesh& mesh, const std::vector<uint32_t>& kept_faces,
                                  const std::vector<Vec3>& face_normals, const std::vector<Vec3d>& area_normals) {
   const size_t nv = mesh.vertex_count(), nk = kept_faces.size();
   // Weld by exact position, in parallel: vertex ids sorted by their coordinate
@@ -107,10 +120,11 @@ std::vector<Vec3> corner_normals(const Mesh& mesh, const std::vector<uint32_t>& 
   if (nv > 0) ++groups;
   order = {};
 
-  // Faces around each welded vertex (CSR), each list in face order: a fixed
-  // summation order whatever the thread count (filled in parallel, then sorted).
+  // Corners around each welded vertex (CSR), each list in corner order: a
+  // fixed summation order whatever the thread count (filled in parallel, then
+  // sorted). A kept face has one corner at each of its three distinct positions.
   auto corner_vertex = [&](size_t c) { return weld[mesh.indices[3 * size_t(kept_faces[c / 3]) + c % 3]]; };
-  std::vector<uint32_t> start(size_t(groups) + 1, 0), faces(3 * nk);
+  std::vector<uint32_t> start(size_t(groups) + 1, 0), corners(3 * nk);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 16384), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t c = r.begin(); c < r.end(); ++c) __atomic_fetch_add(&start[corner_vertex(c) + 1], 1u, __ATOMIC_RELAXED);
   });
@@ -118,27 +132,71 @@ std::vector<Vec3> corner_normals(const Mesh& mesh, const std::vector<uint32_t>& 
   std::vector<uint32_t> fill(start.begin(), start.end() - 1);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 16384), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t c = r.begin(); c < r.end(); ++c)
-      faces[__atomic_fetch_add(&fill[corner_vertex(c)], 1u, __ATOMIC_RELAXED)] = uint32_t(c / 3);
+      corners[__atomic_fetch_add(&fill[corner_vertex(c)], 1u, __ATOMIC_RELAXED)] = uint32_t(c);
   });
+  fill = {};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, groups, 4096), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t v = r.begin(); v < r.end(); ++v) std::sort(faces.begin() + start[v], faces.begin() + start[v + 1]);
+    for (size_t v = r.begin(); v < r.end(); ++v) std::sort(corners.begin() + start[v], corners.begin() + start[v + 1]);
   });
 
   const float min_cos = float(std::cos(kSmoothingAngleDeg * M_PI / 180.0));
-  std::vector<Vec3> out(3 * nk);
+  std::vector<Vec3> normal(3 * nk);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t c = r.begin(); c < r.end(); ++c) {
       const Vec3 own = face_normals[c / 3];
       Vec3d acc{0, 0, 0};
       const uint32_t v = corner_vertex(c);
       for (uint32_t i = start[v]; i < start[v + 1]; ++i) {
-        const uint32_t g = faces[i];
+        const uint32_t g = corners[i] / 3;
         const float cosine = dot(face_normals[g], own);
         if (std::abs(cosine) < min_cos) continue;
         acc = acc + (cosine < 0 ? -1.0 : 1.0) * area_normals[g];
       }
       const double len = norm(acc);
-      out[c] = len > 0 ? Vec3{float(acc.x / len), float(acc.y / len), float(acc.z / len)} : own;
+      normal[c] = len > 0 ? Vec3{float(acc.x / len), float(acc.y / len), float(acc.z / len)} : own;
+    }
+  });
+
+  // Share: within each welded vertex, in corner order, a corner joins the
+  // first earlier one with an equal or opposite normal (exact), else starts a
+  // shared vertex. Shared vertices are numbered by welded vertex, then by
+  // their first corner.
+  auto same_gray = [](Vec3 a, Vec3 b) {
+    return (a.x == b.x && a.y == b.y && a.z == b.z) || (a.x == -b.x && a.y == -b.y && a.z == -b.z);
+  };
+  std::vector<uint32_t> first(3 * nk), distinct(size_t(groups) + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, groups, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v < r.end(); ++v) {
+      uint32_t count = 0;
+      for (uint32_t i = start[v]; i < start[v + 1]; ++i) {
+        const uint32_t c = corners[i];
+        uint32_t j = start[v];
+        while (j < i && !(first[corners[j]] == corners[j] && same_gray(normal[corners[j]], normal[c]))) ++j;
+        first[c] = j < i ? corners[j] : c;
+        count += first[c] == c;
+      }
+      distinct[v + 1] = count;
+    }
+  });
+  for (size_t v = 0; v < groups; ++v) distinct[v + 1] += distinct[v];
+  ShadingVertices out;
+  out.index.resize(3 * nk);
+  out.corner.resize(distinct[groups]);
+  out.normal.resize(distinct[groups]);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, groups, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v < r.end(); ++v) {
+      uint32_t next = distinct[v];
+      for (uint32_t i = start[v]; i < start[v + 1]; ++i) {
+        const uint32_t c = corners[i];
+        if (first[c] != c) continue;
+        out.corner[next] = c;
+        out.normal[next] = normal[c];
+        out.index[c] = next++;
+      }
+      for (uint32_t i = start[v]; i < start[v + 1]; ++i) {
+        const uint32_t c = corners[i];
+        if (first[c] != c) out.index[c] = out.index[first[c]];
+      }
     }
   });
   return out;
@@ -199,7 +257,7 @@ Status load_functions(ProcLoader loader, Functions* gl) {
   VPR_LOAD(DisableClientState, "glDisableClientState");
   VPR_LOAD(VertexPointer, "glVertexPointer");
   VPR_LOAD(ColorPointer, "glColorPointer");
-  VPR_LOAD(DrawArrays, "glDrawArrays");
+  VPR_LOAD(DrawElements, "glDrawElements");
   VPR_LOAD(PixelStorei, "glPixelStorei");
   VPR_LOAD(ReadBuffer, "glReadBuffer");
   VPR_LOAD(ReadPixels, "glReadPixels");
@@ -324,15 +382,16 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
       return invalid_argument("face index " + std::to_string(i) + " is out of range; the mesh has " +
                               std::to_string(mesh.vertex_count()) + " vertices");
 
-  // Unweld: three vertices per non-degenerate face, each face its own colour.
-  // Positions are stored relative to the bounding-box centre, and the centre
-  // goes into the (double) matrix instead: GL's float transform would
-  // otherwise lose the surface detail of a scan far from the origin.
+  // The drawable faces' corners, shared where their positions and normals
+  // agree (shading_vertices). Positions are stored relative to the
+  // bounding-box centre, and the centre goes into the (double) matrix
+  // instead: GL's float transform would otherwise lose the surface detail of
+  // a scan far from the origin.
   const Aabb box = bounding_box(mesh);
   const Vec3d centre{0.5 * (double(box.lo[0]) + box.hi[0]), 0.5 * (double(box.lo[1]) + box.hi[1]),
                      0.5 * (double(box.lo[2]) + box.hi[2])};
   // Two parallel passes: which faces are drawable (and their normals), then
-  // their corners at the slots a prefix sum gives them (face order kept).
+  // their normals at the slots a prefix sum gives them (face order kept).
   std::vector<Vec3d> all_normals(nf);
   std::vector<uint32_t> slot(nf + 1, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 8192), [&](const tbb::blocked_range<size_t>& r) {
@@ -347,7 +406,6 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   });
   for (size_t f = 0; f < nf; ++f) slot[f + 1] += slot[f];
   const size_t kept = slot[nf];
-  std::vector<float> positions(9 * kept);
   std::vector<Vec3> face_normals(kept);  // float: at 40M faces the doubles would cost another 0.5 GB
   std::vector<Vec3d> area_normals(kept);
   std::vector<uint32_t> kept_faces(kept);
@@ -360,20 +418,28 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
       face_normals[k] = Vec3{float(n.x / len), float(n.y / len), float(n.z / len)};
       area_normals[k] = n;
       kept_faces[k] = uint32_t(f);
-      for (int c = 0; c < 3; ++c) {
-        const Vec3d p = load3d(mesh.positions.data(), mesh.indices[3 * f + c]) - centre;
-        positions[9 * k + 3 * c] = float(p.x);
-        positions[9 * k + 3 * c + 1] = float(p.y);
-        positions[9 * k + 3 * c + 2] = float(p.z);
-      }
     }
   });
   all_normals = {};
   slot = {};
-  const std::vector<Vec3> normals = corner_normals(mesh, kept_faces, face_normals, area_normals);
+  const ShadingVertices shared = shading_vertices(mesh, kept_faces, face_normals, area_normals);
   area_normals = {};
-  const GLsizei vertex_count = GLsizei(3 * kept);
-  std::vector<uint8_t> colors(4 * 3 * kept, 255);
+  face_normals = {};
+  const size_t nshared = shared.corner.size();
+  std::vector<float> positions(3 * nshared);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nshared, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) {
+      const uint32_t c = shared.corner[i];
+      const Vec3d p = load3d(mesh.positions.data(), mesh.indices[3 * size_t(kept_faces[c / 3]) + c % 3]) - centre;
+      positions[3 * i] = float(p.x);
+      positions[3 * i + 1] = float(p.y);
+      positions[3 * i + 2] = float(p.z);
+    }
+  });
+  const std::vector<Vec3>& normals = shared.normal;
+  const std::vector<uint32_t>& indices = shared.index;
+  const GLsizei index_count = GLsizei(3 * kept);
+  std::vector<uint8_t> colors(4 * nshared, 255);
 
   lap(&bd.prep);
   gl.GetError();
@@ -397,17 +463,20 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   gl.LoadIdentity();
   gl.EnableClientState(GL_VERTEX_ARRAY);
   gl.EnableClientState(GL_COLOR_ARRAY);
-  // With buffer objects the positions cross to the GPU once, and only the
-  // colours (a quarter of the bytes) once per view.
-  GLuint buffers[2] = {0, 0};
+  // With buffer objects the positions and indices cross to the GPU once, and
+  // only the colours (a quarter of the vertex bytes) once per view.
+  GLuint buffers[3] = {0, 0, 0};
   const bool use_buffers = gl.has_vertex_buffers();
   const GLsizeiptr position_bytes = GLsizeiptr(positions.size() * sizeof(float));
   const GLsizeiptr color_bytes = GLsizeiptr(colors.size());
+  const GLsizeiptr index_bytes = GLsizeiptr(indices.size() * sizeof(uint32_t));
   if (use_buffers) {
-    gl.GenBuffers(2, buffers);
+    gl.GenBuffers(3, buffers);
     gl.BindBuffer(GL_ARRAY_BUFFER, buffers[0]);
     gl.BufferData(GL_ARRAY_BUFFER, position_bytes, positions.data(), GL_STATIC_DRAW);
     gl.VertexPointer(3, GL_FLOAT, 0, nullptr);
+    gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, buffers[2]);
+    gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, index_bytes, indices.data(), GL_STATIC_DRAW);
     gl.BindBuffer(GL_ARRAY_BUFFER, buffers[1]);
     gl.BufferData(GL_ARRAY_BUFFER, color_bytes, nullptr, GL_STREAM_DRAW);
     gl.ColorPointer(4, GL_UNSIGNED_BYTE, 0, nullptr);
@@ -421,7 +490,8 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     gl.DisableClientState(GL_COLOR_ARRAY);
     if (use_buffers) {
       gl.BindBuffer(GL_ARRAY_BUFFER, 0);
-      gl.DeleteBuffers(2, buffers);
+      gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, 0);
+      gl.DeleteBuffers(3, buffers);
     }
   };
 
@@ -431,7 +501,7 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   for (const View& view : views) {
     const Vec3d l = view_light(view);
     const Vec3 light{float(l.x), float(l.y), float(l.z)};
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * kept, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nshared, 16384), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t c = r.begin(); c < r.end(); ++c) {
         const float shade =
             std::clamp(float(kAmbient) + float(1.0 - kAmbient) * std::abs(dot(normals[c], light)), 0.f, 1.f);
@@ -450,8 +520,14 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     gl.LoadMatrixd(m.data());
     gl.Viewport(0, 0, view.width, view.height);
     gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    for (GLsizei first = 0; first < vertex_count; first += kDrawChunk)
-      gl.DrawArrays(GL_TRIANGLES, first, std::min(kDrawChunk, vertex_count - first));
+    for (GLsizei first = 0; first < index_count; first += kDrawChunk) {
+      const GLsizei count = std::min(kDrawChunk, index_count - first);
+      if (use_buffers)
+        gl.DrawElements(GL_TRIANGLES, count, GL_UNSIGNED_INT,
+                        reinterpret_cast<const void*>(size_t(first) * sizeof(uint32_t)));
+      else
+        gl.DrawElements(GL_TRIANGLES, count, GL_UNSIGNED_INT, indices.data() + first);
+    }
 
     const int w = view.width, h = view.height;
     rgba.resize(size_t(w) * h * 4);
