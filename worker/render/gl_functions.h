@@ -46,6 +46,7 @@ struct Functions {
   decltype(&::glDisableClientState) DisableClientState = nullptr;
   decltype(&::glVertexPointer) VertexPointer = nullptr;
   decltype(&::glColorPointer) ColorPointer = nullptr;
+  decltype(&::glDrawArrays) DrawArrays = nullptr;
   decltype(&::glDrawElements) DrawElements = nullptr;
   decltype(&::glPixelStorei) PixelStorei = nullptr;
   decltype(&::glReadBuffer) ReadBuffer = nullptr;
@@ -101,8 +102,14 @@ struct RenderBreakdown {
   std::string to_string() const;
 };
 
+// path: Renderer::DrawPath (kAuto: by software_rasterizer).
 Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
-                    RenderBreakdown* breakdown = nullptr);
+                    RenderBreakdown* breakdown = nullptr, Renderer::DrawPath path = Renderer::DrawPath::kAuto);
+
+// Whether the current context rasterizes on the CPU (Mesa's llvmpipe,
+// softpipe, swrast): render_views then draws every corner unindexed, which
+// those draw faster, instead of sharing corners for a smaller upload.
+bool software_rasterizer(const Functions& gl);
 
 // Largest width and height over the views.
 void max_view_size(const std::vector<View>& views, int* width, int* height);

@@ -53,7 +53,7 @@ constexpr double kSmoothingAngleDeg = 60;   // faces meeting at a sharper angle 
 constexpr double kAmbient = 0.15;           // gray floor, so grazing faces stay distinct from background
 constexpr double kLightTiltDegrees = 25.0;  // headlight tilt toward the view's upper left
 constexpr GLenum kMultisample = 0x809D;     // GL_MULTISAMPLE (GL 1.3)
-// Indices per glDrawElements call: keeps any one call well inside driver limits
+// Corners per draw call: keeps any one call well inside driver limits
 // for meshes of tens of millions of faces.
 constexpr GLsizei kDrawChunk = 3 * (1 << 20);
 
@@ -81,21 +81,14 @@ Vec3d unit(Vec3d v) {
 // that position that lie within kSmoothingAngleDeg of f's, each flipped to f's
 // side first. kept_faces: the #K non-degenerate faces drawn; face_normals and
 // area_normals (cross products, length = 2 area) are theirs.
-//
-// The corners are then shared: the corners at one welded position whose
-// normals are equal, or opposite (the same |n . l|, so the same gray), are
-// one vertex of the draw. On a smooth closed mesh that is one vertex per
-// input vertex instead of six corners, so the per-view shading, its upload
-// and the renderer's vertex work fall about six-fold, and every triangle is
-// drawn with the same corner values as before.
-struct ShadingVertices {
-  std::vector<uint32_t> corner;  // per shared vertex: the first corner (3 k + i) it stands for
-  std::vector<Vec3> normal;      // per shared vertex
-  std::vector<uint32_t> index;   // #K x 3: each corner's shared vertex
+struct CornerNormals {
+  std::vector<Vec3> normal;  // #K x 3, per corner (3 k + i)
+  // The corners at each welded position, in corner order (CSR): corners[start[v]..start[v + 1]).
+  std::vector<uint32_t> start, corners;
 };
 
-ShadingVertices shading_vertices(const Mesh& mesh, const std::vector<uint32_t>& kept_faces,
-                                 const std::vector<Vec3>& face_normals, const std::vector<Vec3d>& area_normals) {
+CornerNormals corner_normals(const Mesh& mesh, const std::vector<uint32_t>& kept_faces,
+                             const std::vector<Vec3>& face_normals, const std::vector<Vec3d>& area_normals) {
   const size_t nv = mesh.vertex_count(), nk = kept_faces.size();
   // Weld by exact position, in parallel: vertex ids sorted by their coordinate
   // bits (ties by id); each run of equal positions is one welded vertex.
@@ -120,11 +113,16 @@ ShadingVertices shading_vertices(const Mesh& mesh, const std::vector<uint32_t>& 
   if (nv > 0) ++groups;
   order = {};
 
-  // Corners around each welded vertex (CSR), each list in corner order: a
-  // fixed summation order whatever the thread count (filled in parallel, then
-  // sorted). A kept face has one corner at each of its three distinct positions.
+  // Corners around each welded vertex (CSR), each list in corner order, so in
+  // face order: a fixed summation order whatever the thread count (filled in
+  // parallel, then sorted). A kept face has one corner at each of its three
+  // distinct positions.
+  CornerNormals out;
+  std::vector<uint32_t>& start = out.start;
+  std::vector<uint32_t>& corners = out.corners;
   auto corner_vertex = [&](size_t c) { return weld[mesh.indices[3 * size_t(kept_faces[c / 3]) + c % 3]]; };
-  std::vector<uint32_t> start(size_t(groups) + 1, 0), corners(3 * nk);
+  start.assign(size_t(groups) + 1, 0);
+  corners.resize(3 * nk);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 16384), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t c = r.begin(); c < r.end(); ++c) __atomic_fetch_add(&start[corner_vertex(c) + 1], 1u, __ATOMIC_RELAXED);
   });
@@ -140,7 +138,7 @@ ShadingVertices shading_vertices(const Mesh& mesh, const std::vector<uint32_t>& 
   });
 
   const float min_cos = float(std::cos(kSmoothingAngleDeg * M_PI / 180.0));
-  std::vector<Vec3> normal(3 * nk);
+  out.normal.resize(3 * nk);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t c = r.begin(); c < r.end(); ++c) {
       const Vec3 own = face_normals[c / 3];
@@ -153,25 +151,44 @@ ShadingVertices shading_vertices(const Mesh& mesh, const std::vector<uint32_t>& 
         acc = acc + (cosine < 0 ? -1.0 : 1.0) * area_normals[g];
       }
       const double len = norm(acc);
-      normal[c] = len > 0 ? Vec3{float(acc.x / len), float(acc.y / len), float(acc.z / len)} : own;
+      out.normal[c] = len > 0 ? Vec3{float(acc.x / len), float(acc.y / len), float(acc.z / len)} : own;
     }
   });
+  return out;
+}
 
-  // Share: within each welded vertex, in corner order, a corner joins the
-  // first earlier one with an equal or opposite normal (exact), else starts a
-  // shared vertex. Shared vertices are numbered by welded vertex, then by
-  // their first corner.
+// For a GPU's renderer: the corners at one welded position whose normals are
+// equal, or opposite (the same |n . l|, so the same gray), become one vertex
+// of an indexed draw. On a smooth closed mesh that is one vertex per input
+// vertex instead of about six corners, so the per-view shading and its
+// upload fall about six-fold, and every triangle is drawn with the same
+// corner values. (A software rasterizer gains nothing from the smaller
+// upload and draws unindexed triangles faster: llvmpipe spent about 8 ms more
+// on igea with the indexed draw, so it keeps the corners.)
+struct SharedCorners {
+  std::vector<uint32_t> corner;  // per shared vertex: the first corner (3 k + i) it stands for
+  std::vector<uint32_t> index;   // #K x 3: each corner's shared vertex
+};
+
+SharedCorners share_corners(const CornerNormals& cn) {
+  const std::vector<uint32_t>& start = cn.start;
+  const std::vector<uint32_t>& corners = cn.corners;
+  const size_t groups = start.size() - 1;
   auto same_gray = [](Vec3 a, Vec3 b) {
     return (a.x == b.x && a.y == b.y && a.z == b.z) || (a.x == -b.x && a.y == -b.y && a.z == -b.z);
   };
-  std::vector<uint32_t> first(3 * nk), distinct(size_t(groups) + 1, 0);
+  // Within each welded position, in corner order, a corner joins the first
+  // earlier one that starts a shared vertex and has an equal or opposite
+  // normal (exact), else starts one. Shared vertices are numbered by welded
+  // position, then by their first corner.
+  std::vector<uint32_t> first(corners.size()), distinct(groups + 1, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, groups, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t v = r.begin(); v < r.end(); ++v) {
       uint32_t count = 0;
       for (uint32_t i = start[v]; i < start[v + 1]; ++i) {
         const uint32_t c = corners[i];
         uint32_t j = start[v];
-        while (j < i && !(first[corners[j]] == corners[j] && same_gray(normal[corners[j]], normal[c]))) ++j;
+        while (j < i && !(first[corners[j]] == corners[j] && same_gray(cn.normal[corners[j]], cn.normal[c]))) ++j;
         first[c] = j < i ? corners[j] : c;
         count += first[c] == c;
       }
@@ -179,10 +196,9 @@ ShadingVertices shading_vertices(const Mesh& mesh, const std::vector<uint32_t>& 
     }
   });
   for (size_t v = 0; v < groups; ++v) distinct[v + 1] += distinct[v];
-  ShadingVertices out;
-  out.index.resize(3 * nk);
+  SharedCorners out;
+  out.index.resize(corners.size());
   out.corner.resize(distinct[groups]);
-  out.normal.resize(distinct[groups]);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, groups, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t v = r.begin(); v < r.end(); ++v) {
       uint32_t next = distinct[v];
@@ -190,7 +206,6 @@ ShadingVertices shading_vertices(const Mesh& mesh, const std::vector<uint32_t>& 
         const uint32_t c = corners[i];
         if (first[c] != c) continue;
         out.corner[next] = c;
-        out.normal[next] = normal[c];
         out.index[c] = next++;
       }
       for (uint32_t i = start[v]; i < start[v + 1]; ++i) {
@@ -257,6 +272,7 @@ Status load_functions(ProcLoader loader, Functions* gl) {
   VPR_LOAD(DisableClientState, "glDisableClientState");
   VPR_LOAD(VertexPointer, "glVertexPointer");
   VPR_LOAD(ColorPointer, "glColorPointer");
+  VPR_LOAD(DrawArrays, "glDrawArrays");
   VPR_LOAD(DrawElements, "glDrawElements");
   VPR_LOAD(PixelStorei, "glPixelStorei");
   VPR_LOAD(ReadBuffer, "glReadBuffer");
@@ -352,6 +368,15 @@ void max_view_size(const std::vector<View>& views, int* width, int* height) {
   }
 }
 
+bool software_rasterizer(const Functions& gl) {
+  const GLubyte* name = gl.GetString(GL_RENDERER);
+  if (!name) return true;  // unknown: the path every renderer draws correctly and fast enough
+  const std::string r(reinterpret_cast<const char*>(name));
+  for (const char* soft : {"llvmpipe", "softpipe", "swrast", "Software Rasterizer", "SWR", "lavapipe"})
+    if (r.find(soft) != std::string::npos) return true;
+  return false;
+}
+
 std::string RenderBreakdown::to_string() const {
   char buf[160];
   std::snprintf(buf, sizeof buf, "prep %.1f ms, upload %.1f ms, draw %.1f ms, readback %.1f ms, convert %.1f ms", prep,
@@ -360,7 +385,7 @@ std::string RenderBreakdown::to_string() const {
 }
 
 Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
-                    RenderBreakdown* breakdown) {
+                    RenderBreakdown* breakdown, Renderer::DrawPath path) {
   assert(out != nullptr);
   RenderBreakdown local;
   RenderBreakdown& bd = breakdown ? *breakdown : local;
@@ -382,11 +407,12 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
       return invalid_argument("face index " + std::to_string(i) + " is out of range; the mesh has " +
                               std::to_string(mesh.vertex_count()) + " vertices");
 
-  // The drawable faces' corners, shared where their positions and normals
-  // agree (shading_vertices). Positions are stored relative to the
-  // bounding-box centre, and the centre goes into the (double) matrix
-  // instead: GL's float transform would otherwise lose the surface detail of
-  // a scan far from the origin.
+  // The drawable faces' corners, with smooth normals (corner_normals); on a
+  // GPU's renderer shared where their positions and normals agree
+  // (share_corners). Positions are stored relative to the bounding-box
+  // centre, and the centre goes into the (double) matrix instead: GL's float
+  // transform would otherwise lose the surface detail of a scan far from the
+  // origin.
   const Aabb box = bounding_box(mesh);
   const Vec3d centre{0.5 * (double(box.lo[0]) + box.hi[0]), 0.5 * (double(box.lo[1]) + box.hi[1]),
                      0.5 * (double(box.lo[2]) + box.hi[2])};
@@ -422,24 +448,34 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   });
   all_normals = {};
   slot = {};
-  const ShadingVertices shared = shading_vertices(mesh, kept_faces, face_normals, area_normals);
+  CornerNormals corner = corner_normals(mesh, kept_faces, face_normals, area_normals);
   area_normals = {};
   face_normals = {};
-  const size_t nshared = shared.corner.size();
-  std::vector<float> positions(3 * nshared);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nshared, 16384), [&](const tbb::blocked_range<size_t>& r) {
+  const bool indexed = path == Renderer::DrawPath::kAuto ? !software_rasterizer(gl)
+                                                        : path == Renderer::DrawPath::kSharedCorners;
+  SharedCorners shared;
+  if (indexed) shared = share_corners(corner);
+  corner.start = {};
+  corner.corners = {};
+  // The drawn vertices: every corner, or each shared vertex's first corner.
+  const size_t drawn = indexed ? shared.corner.size() : 3 * kept;
+  std::vector<Vec3> shared_normals(indexed ? drawn : 0);
+  std::vector<float> positions(3 * drawn);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, drawn, 16384), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i < r.end(); ++i) {
-      const uint32_t c = shared.corner[i];
+      const uint32_t c = indexed ? shared.corner[i] : uint32_t(i);
+      if (indexed) shared_normals[i] = corner.normal[c];
       const Vec3d p = load3d(mesh.positions.data(), mesh.indices[3 * size_t(kept_faces[c / 3]) + c % 3]) - centre;
       positions[3 * i] = float(p.x);
       positions[3 * i + 1] = float(p.y);
       positions[3 * i + 2] = float(p.z);
     }
   });
-  const std::vector<Vec3>& normals = shared.normal;
+  if (indexed) corner.normal = {};
+  const std::vector<Vec3>& normals = indexed ? shared_normals : corner.normal;
   const std::vector<uint32_t>& indices = shared.index;
-  const GLsizei index_count = GLsizei(3 * kept);
-  std::vector<uint8_t> colors(4 * nshared, 255);
+  const GLsizei vertex_count = GLsizei(3 * kept);  // corners drawn (indices, or array vertices)
+  std::vector<uint8_t> colors(4 * drawn, 255);
 
   lap(&bd.prep);
   gl.GetError();
@@ -475,8 +511,10 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     gl.BindBuffer(GL_ARRAY_BUFFER, buffers[0]);
     gl.BufferData(GL_ARRAY_BUFFER, position_bytes, positions.data(), GL_STATIC_DRAW);
     gl.VertexPointer(3, GL_FLOAT, 0, nullptr);
-    gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, buffers[2]);
-    gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, index_bytes, indices.data(), GL_STATIC_DRAW);
+    if (indexed) {
+      gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, buffers[2]);
+      gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, index_bytes, indices.data(), GL_STATIC_DRAW);
+    }
     gl.BindBuffer(GL_ARRAY_BUFFER, buffers[1]);
     gl.BufferData(GL_ARRAY_BUFFER, color_bytes, nullptr, GL_STREAM_DRAW);
     gl.ColorPointer(4, GL_UNSIGNED_BYTE, 0, nullptr);
@@ -501,7 +539,7 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   for (const View& view : views) {
     const Vec3d l = view_light(view);
     const Vec3 light{float(l.x), float(l.y), float(l.z)};
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nshared, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, drawn, 16384), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t c = r.begin(); c < r.end(); ++c) {
         const float shade =
             std::clamp(float(kAmbient) + float(1.0 - kAmbient) * std::abs(dot(normals[c], light)), 0.f, 1.f);
@@ -520,9 +558,11 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     gl.LoadMatrixd(m.data());
     gl.Viewport(0, 0, view.width, view.height);
     gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    for (GLsizei first = 0; first < index_count; first += kDrawChunk) {
-      const GLsizei count = std::min(kDrawChunk, index_count - first);
-      if (use_buffers)
+    for (GLsizei first = 0; first < vertex_count; first += kDrawChunk) {
+      const GLsizei count = std::min(kDrawChunk, vertex_count - first);
+      if (!indexed)
+        gl.DrawArrays(GL_TRIANGLES, first, count);
+      else if (use_buffers)
         gl.DrawElements(GL_TRIANGLES, count, GL_UNSIGNED_INT,
                         reinterpret_cast<const void*>(size_t(first) * sizeof(uint32_t)));
       else

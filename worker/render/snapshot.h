@@ -34,14 +34,21 @@ class Renderer {
   // "osmesa: llvmpipe (LLVM 15.0.6, 256 bits) (Mesa/X.org)".
   virtual std::string description() const = 0;
   // Renders every view of the mesh; out receives one Snapshot per view.
-  // Shading: flat and two-sided (polygon soups need not be oriented), gray =
-  // 255 * (0.15 + 0.85 |n . l|), n the face normal, l the view direction
-  // tilted 25 degrees toward the image's upper left. Degenerate faces draw
-  // nothing. Out-of-range indices are kInvalidArgument.
+  // Shading: smooth and two-sided (polygon soups need not be oriented), gray =
+  // 255 * (0.15 + 0.85 |n . l|), n the corner's smooth normal (faces within
+  // 60 degrees averaged, creases kept), l the view direction tilted 25
+  // degrees toward the image's upper left. Degenerate faces draw nothing.
+  // Out-of-range indices are kInvalidArgument.
   virtual Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out) = 0;
   // Where the last render() spent its time, for benchmarks:
   // "prep P ms, upload U ms, draw D ms, readback R ms, convert C ms".
   virtual std::string last_breakdown() const { return ""; }
+  // How the corners reach GL. kAuto: on a GPU, corners with the same
+  // position and normal shared in an indexed draw (a smaller upload); on a
+  // software rasterizer (llvmpipe), every corner unindexed (it draws those
+  // faster). Both give the same images; tests force each.
+  enum class DrawPath { kAuto, kCorners, kSharedCorners };
+  virtual void set_draw_path(DrawPath path) { (void)path; }
 };
 
 // kAuto tries EGL first and falls back to OSMesa. The error names every

@@ -106,6 +106,10 @@ class EglRenderer final : public Renderer {
 
   std::string description() const override { return description_; }
   std::string last_breakdown() const override { return breakdown_.to_string(); }
+  void set_draw_path(DrawPath path) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    draw_path_ = path;
+  }
 
   // One render at a time per renderer: the context is made current on the
   // calling thread for the duration of the call and released afterwards.
@@ -120,7 +124,7 @@ class EglRenderer final : public Renderer {
     } else {
       s = ensure_pbuffer(width, height);
     }
-    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_);
+    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_, draw_path_);
     release();
     return s;
   }
@@ -163,6 +167,7 @@ class EglRenderer final : public Renderer {
   Framebuffer framebuffer_;
   Functions gl_;
   RenderBreakdown breakdown_;
+  DrawPath draw_path_ = DrawPath::kAuto;
   std::string description_;
   std::mutex mutex_;
 };

@@ -36,6 +36,10 @@ class OsmesaRenderer final : public Renderer {
 
   std::string description() const override { return description_; }
   std::string last_breakdown() const override { return breakdown_.to_string(); }
+  void set_draw_path(DrawPath path) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    draw_path_ = path;
+  }
 
   // One render at a time per renderer; the context is current on the calling
   // thread only for the duration of the call.
@@ -44,7 +48,7 @@ class OsmesaRenderer final : public Renderer {
     int width = 0, height = 0;
     max_view_size(views, &width, &height);
     Status s = make_current(width, height);
-    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_);
+    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_, draw_path_);
     release();
     return s;
   }
@@ -78,6 +82,7 @@ class OsmesaRenderer final : public Renderer {
   std::vector<uint8_t> buffer_;  // RGBA8 colour, bottom row first
   Functions gl_;
   RenderBreakdown breakdown_;
+  DrawPath draw_path_ = DrawPath::kAuto;
   std::string description_;
   std::mutex mutex_;
 };
