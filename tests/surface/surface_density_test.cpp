@@ -105,5 +105,91 @@ TEST(MeanCurvatureTest, SameBitsAsOneEdgeAtATimeOnAnyThreadCount) {
   EXPECT_EQ(want[m.vertex_count() - 1], 0.0);
 }
 
+// A unit icosphere with a Gaussian dimple of depth `depth` and angular radius
+// `width` around +z: its floor is concave, the rest of the sphere convex.
+Mesh dimpled_sphere(float depth, float width) {
+  Mesh m = icosphere(5);
+  for (size_t v = 0; v < m.vertex_count(); ++v) {
+    float* p = &m.positions[3 * v];
+    const float angle = std::acos(std::clamp(p[2], -1.0f, 1.0f));
+    const float r = 1.0f - depth * std::exp(-angle * angle / (2 * width * width));
+    for (int k = 0; k < 3; ++k) p[k] *= r;
+  }
+  return m;
+}
+
+// The convexity-weighted curvature (mean_curvatures): |H| itself with weight
+// 1; on a convex surface all of |H| whatever the weight; concave edges count
+// concave_weight of their term (the dimple's floor loses it, the sphere far
+// from it keeps |H| bit for bit); the same values with every face turned
+// round (the signed volume turns the test); and an edge whose two faces
+// disagree on their orientation keeps its whole term.
+TEST(MeanCurvatureTest, ConcaveEdgesCountTheirWeight) {
+  const Mesh sphere = icosphere(4);
+  const std::vector<double> plain = mean_curvature(sphere);
+  std::vector<double> mean, weighted;
+  mean_curvatures(sphere, 1.0, &mean, &weighted);
+  EXPECT_EQ(mean, plain);
+  EXPECT_EQ(weighted, plain);
+  mean_curvatures(sphere, 0.0, &mean, &weighted);
+  EXPECT_EQ(mean, plain);
+  EXPECT_EQ(weighted, plain) << "a sphere has no concave edge";
+
+  const Mesh dimpled = dimpled_sphere(0.15f, 0.2f);
+  auto angle_of = [&](uint32_t v) {  // from +z, the dimple's axis
+    const float* p = &dimpled.positions[3 * size_t(v)];
+    return std::acos(std::clamp(p[2] / std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]), -1.0f, 1.0f));
+  };
+  mean_curvatures(dimpled, 0.0, &mean, &weighted);
+  EXPECT_EQ(mean, mean_curvature(dimpled));
+  size_t floor = 0, far = 0;
+  for (uint32_t v = 0; v < dimpled.vertex_count(); ++v) {
+    const float angle = angle_of(v);
+    if (angle < 0.1f) {  // the floor: concave all round (its curvature 0.15 / 0.2^2 less the sphere's 1)
+      ++floor;
+      EXPECT_GT(mean[v], 1.5) << v;
+      EXPECT_LT(weighted[v], 0.05 * mean[v]) << v;
+    } else if (angle > 1.0f) {  // far away: convex, untouched
+      ++far;
+      EXPECT_EQ(weighted[v], mean[v]) << v;
+    }
+  }
+  EXPECT_GE(floor, 3u);
+  EXPECT_GT(far, 1000u);
+  std::vector<double> half;
+  mean_curvatures(dimpled, 0.5, nullptr, &half);
+  for (size_t v = 0; v < dimpled.vertex_count(); ++v) {
+    EXPECT_LE(weighted[v], half[v]) << v;
+    EXPECT_LE(half[v], mean[v]) << v;
+  }
+
+  // Turned inside out: every face reversed, the same weighted values.
+  Mesh inside_out = dimpled;
+  for (size_t f = 0; f < inside_out.face_count(); ++f)
+    std::swap(inside_out.indices[3 * f + 1], inside_out.indices[3 * f + 2]);
+  EXPECT_LT(signed_volume(inside_out), 0.0);
+  EXPECT_GT(signed_volume(dimpled), 0.0);
+  std::vector<double> turned;
+  mean_curvatures(inside_out, 0.0, nullptr, &turned);
+  for (size_t v = 0; v < dimpled.vertex_count(); ++v) EXPECT_NEAR(turned[v], weighted[v], 1e-9 * mean[v]) << v;
+
+  // One floor face turned round alone: its edges' faces disagree, so they keep
+  // their whole terms, and its corners' values rise.
+  size_t face = SIZE_MAX;
+  for (size_t f = 0; f < dimpled.face_count() && face == SIZE_MAX; ++f)
+    if (angle_of(dimpled.indices[3 * f]) < 0.05f && angle_of(dimpled.indices[3 * f + 1]) < 0.1f &&
+        angle_of(dimpled.indices[3 * f + 2]) < 0.1f)
+      face = f;
+  ASSERT_NE(face, SIZE_MAX);
+  Mesh one_flipped = dimpled;
+  std::swap(one_flipped.indices[3 * face + 1], one_flipped.indices[3 * face + 2]);
+  std::vector<double> mixed;
+  mean_curvatures(one_flipped, 0.0, nullptr, &mixed);
+  for (int c = 0; c < 3; ++c) {
+    const uint32_t v = dimpled.indices[3 * face + c];
+    EXPECT_GT(mixed[v], weighted[v] + 0.2 * mean[v]) << "corner " << v;
+  }
+}
+
 }  // namespace
 }  // namespace vpr

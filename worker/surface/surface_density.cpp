@@ -65,11 +65,31 @@ void bucket_sort(size_t n, size_t buckets, BucketOf bucket_of, MakeItem make_ite
 
 }  // namespace
 
+std::vector<double> mean_curvature(const Mesh& mesh) {
+  std::vector<double> h;
+  mean_curvatures(mesh, 1.0, &h, nullptr);
+  return h;
+}
+
+double signed_volume(const Mesh& mesh) {
+  const Aabb box = bounding_box(mesh);
+  const Vec3d o{0.5 * (double(box.lo[0]) + box.hi[0]), 0.5 * (double(box.lo[1]) + box.hi[1]),
+                0.5 * (double(box.lo[2]) + box.hi[2])};
+  const float* p = mesh.positions.data();
+  double v = 0;
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    const uint32_t* t = &mesh.indices[3 * f];
+    v += dot(load3d(p, t[0]) - o, cross(load3d(p, t[1]) - o, load3d(p, t[2]) - o));
+  }
+  return v / 6.0;
+}
+
 // The sums run in parallel with the same bits as one thread adding edge by
 // edge in (lower vertex, upper vertex) order and face by face: each vertex
 // gathers its own terms in that order (the faces it is a corner of, in face
 // order; its edges to lower vertices, then to higher ones, each ascending).
-std::vector<double> mean_curvature(const Mesh& mesh) {
+void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double>* mean,
+                     std::vector<double>* weighted) {
   const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
   const float* p = mesh.positions.data();
   const uint32_t* idx = mesh.indices.data();
@@ -124,8 +144,23 @@ std::vector<double> mean_curvature(const Mesh& mesh) {
         }
     }
   });
-  // Each edge's term, 1/4 |dihedral angle| x length.
-  std::vector<double> term(ne);
+  // Each edge's term, 1/4 |dihedral angle| x length; weighted: the same
+  // times concave_weight where the edge is concave (an edge of two faces
+  // that run along it in opposite directions, the far corner of one below the
+  // other's plane, for a surface facing outwards: a negative signed volume
+  // turns the test round; an edge whose faces disagree on their orientation
+  // keeps its whole term).
+  const bool weigh = weighted != nullptr;
+  const bool outwards = !weigh || concave_weight == 1.0 || signed_volume(mesh) >= 0;
+  auto runs_forward = [&](uint32_t face, uint32_t a, uint32_t b) {
+    const uint32_t* t = &idx[3 * size_t(face)];
+    return (t[0] == a && t[1] == b) || (t[1] == a && t[2] == b) || (t[2] == a && t[0] == b);
+  };
+  auto far_corner = [&](uint32_t face, uint32_t a, uint32_t b) {
+    const uint32_t* t = &idx[3 * size_t(face)];
+    return t[0] != a && t[0] != b ? t[0] : t[1] != a && t[1] != b ? t[1] : t[2];
+  };
+  std::vector<double> term(ne), weighted_term(weigh ? ne : 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, ne, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t e = r.begin(); e != r.end(); ++e) {
       const uint32_t i = edge_begin[e], j = edge_begin[e + 1];
@@ -135,8 +170,20 @@ std::vector<double> mean_curvature(const Mesh& mesh) {
         for (uint32_t b = a + 1; b < j; ++b)
           angle = std::max(angle,
                            std::acos(std::clamp(dot(normal[halves[a].face], normal[halves[b].face]), -1.0, 1.0)));
-      const double length = norm(load3d(p, edge_lower[e]) - load3d(p, halves[i].upper));
+      const uint32_t lo = edge_lower[e], hi = halves[i].upper;
+      const double length = norm(load3d(p, lo) - load3d(p, hi));
       term[e] = 0.25 * angle * length;
+      if (!weigh) continue;
+      double w = 1.0;
+      if (j - i == 2 && concave_weight != 1.0) {
+        const uint32_t fa = halves[i].face, fb = halves[i + 1].face;
+        if (runs_forward(fa, lo, hi) != runs_forward(fb, lo, hi)) {
+          const double below = dot(normal[fa], load3d(p, far_corner(fb, lo, hi)) - load3d(p, lo));
+          const bool concave = outwards ? below > 0 : below < 0;
+          if (concave) w = concave_weight;
+        }
+      }
+      weighted_term[e] = term[e] * w;
     }
   });
   // Each vertex's edges to lower vertices, ascending.
@@ -144,21 +191,25 @@ std::vector<double> mean_curvature(const Mesh& mesh) {
   bucket_sort<uint32_t>(
       ne, nv, [&](size_t e) { return halves[edge_begin[e]].upper; }, [](size_t e) { return uint32_t(e); },
       std::less<uint32_t>(), &down_start, &down);
-  std::vector<double> h(nv, 0.0);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t v = r.begin(); v != r.end(); ++v) {
-      double area = 0.0, integral = 0.0;
-      for (uint32_t i = corner_start[v]; i < corner_start[v + 1]; ++i) area += twice_area[corner_face[i]] / 6.0;
-      for (uint32_t i = down_start[v]; i < down_start[v + 1]; ++i)
-        if (edge_lower[down[i]] != v) integral += term[down[i]];
-      for (uint32_t e = edge_start[v]; e < edge_start[v + 1]; ++e) {
-        integral += term[e];
-        if (halves[edge_begin[e]].upper == v) integral += term[e];  // an edge from v to itself counts at both ends
+  // Per vertex, the sum of its edges' terms over its area, for each term array.
+  auto per_vertex = [&](const std::vector<double>& t, std::vector<double>* h) {
+    h->assign(nv, 0.0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v) {
+        double area = 0.0, integral = 0.0;
+        for (uint32_t i = corner_start[v]; i < corner_start[v + 1]; ++i) area += twice_area[corner_face[i]] / 6.0;
+        for (uint32_t i = down_start[v]; i < down_start[v + 1]; ++i)
+          if (edge_lower[down[i]] != v) integral += t[down[i]];
+        for (uint32_t e = edge_start[v]; e < edge_start[v + 1]; ++e) {
+          integral += t[e];
+          if (halves[edge_begin[e]].upper == v) integral += t[e];  // an edge from v to itself counts at both ends
+        }
+        (*h)[v] = area > 0 ? integral / area : 0.0;
       }
-      h[v] = area > 0 ? integral / area : 0.0;
-    }
-  });
-  return h;
+    });
+  };
+  if (mean) per_vertex(term, mean);
+  if (weighted) per_vertex(weighted_term, weighted);
 }
 
 std::vector<float> vertex_density(const Mesh& mesh, const std::vector<float>& importance, DensityMode mode) {

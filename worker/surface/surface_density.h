@@ -31,6 +31,23 @@ const char* density_mode_name(DensityMode mode);
 // cotangents, so CAD slivers give no spikes; creases give large values.
 std::vector<double> mean_curvature(const Mesh& mesh);
 
+// |H| as above into *mean (when not null), and into *weighted (when not null)
+// the same sums with every concave edge's term times concave_weight: the
+// convex part of the curvature, where people look (docs/perception.md:
+// noses, eyes, horns and rims draw the eye; the creases where surfaces meet
+// do not). Concave: an edge of two faces that run along it in opposite
+// directions, the far corner of one face on the outer side of the other's
+// plane, for a surface whose signed volume is positive (outwards; negative
+// turns the test round). An edge whose two faces disagree on their
+// orientation, a boundary edge and an edge of three or more faces keep their
+// whole term. With concave_weight 1, *weighted equals *mean bit for bit.
+void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double>* mean,
+                     std::vector<double>* weighted);
+
+// Signed volume enclosed by the faces (about the bounding-box centre):
+// positive where they face outwards.
+double signed_volume(const Mesh& mesh);
+
 // D per vertex. Curvature term: sqrt(|H| / median |H|) clamped to [0.3, 3]
 // (spacing follows the radius of curvature, bounded). Saliency term:
 // sqrt(I / median I) clamped to [0.5, 2] (importance moves vertices towards
