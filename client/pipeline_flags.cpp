@@ -58,6 +58,9 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--attention-sigma", o.attention.coarse_sigma,
                   "Attention field: coarse curvature scale, a fraction of the bounding-box diagonal")
       ->capture_default_str();
+  cmd->add_option("--concave-weight", o.attention.concave_weight,
+                  "Attention field: share of a concave edge's curvature the cue keeps (1: |H|, 0: convex only)")
+      ->capture_default_str();
   cmd->add_option("--anisotropy", o.anisotropy,
                   "CVT anisotropy, a share of the bounding-box diagonal: cells stretch where the surface turns "
                   "least (0: isotropic)")

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "../test_meshes.h"
@@ -19,13 +20,16 @@ namespace {
 
 const ExecContext kCpu{};
 
-std::vector<float> curvature_of(const Mesh& mesh) {
-  const std::vector<double> h = mean_curvature(mesh);
+// The field's curvature as the pipeline computes it (concave edges weighed by
+// the options' concave_weight).
+std::vector<float> curvature_of(const Mesh& mesh, const AttentionFieldOptions& options = {}) {
+  std::vector<double> h;
+  mean_curvatures(mesh, options.concave_weight, nullptr, &h);
   return std::vector<float>(h.begin(), h.end());
 }
 
 StatusOr<std::vector<float>> field_of(const Mesh& mesh, const AttentionFieldOptions& options = {}) {
-  const std::vector<float> h = curvature_of(mesh);
+  const std::vector<float> h = curvature_of(mesh, options);
   std::vector<float> field;
   VPR_RETURN_IF_ERROR(
       cpu::attention_field(mesh.positions.data(), h.data(), nullptr, {}, mesh.vertex_count(), options, &field, kCpu));
@@ -92,6 +96,37 @@ TEST(AttentionField, ASmallBumpOnASphereIsInTheTopFivePercent) {
   }
 }
 
+// Convexity: a bump draws the eye, a dimple of the same size does not (its
+// floor is concave); with plain |H| (concave_weight 1) both stand out alike.
+TEST(AttentionField, ABumpStandsOutAndADimpleOfTheSameSizeDoesNot) {
+  Mesh m = bumped_sphere({1, 0, 0}, 0.03f, 0.08f);
+  for (size_t v = 0; v < m.vertex_count(); ++v) {  // and a dimple on the opposite side
+    float* p = &m.positions[3 * v];
+    const float len = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    const float angle = std::acos(std::clamp(-p[0] / len, -1.0f, 1.0f));
+    const float r = 1.0f - 0.03f * std::exp(-angle * angle / (2 * 0.08f * 0.08f));
+    for (int k = 0; k < 3; ++k) p[k] *= r;
+  }
+  const std::vector<size_t> bump = cap_of(m, {1, 0, 0}, 0.05f), dimple = cap_of(m, {-1, 0, 0}, 0.05f);
+  ASSERT_GE(bump.size(), 5u);
+  ASSERT_GE(dimple.size(), 5u);
+  for (float concave_weight : {0.0f, 1.0f}) {
+    AttentionFieldOptions o;
+    o.view_bias = 0;  // the two sides alike but for their shape
+    o.concave_weight = concave_weight;
+    auto field = field_of(m, o);
+    ASSERT_TRUE(field.ok()) << field.status().to_string();
+    const float top5 = quantile(*field, 0.95), median = quantile(*field, 0.5);
+    for (size_t v : bump) EXPECT_GE((*field)[v], top5) << "bump vertex " << v << ", concave weight " << concave_weight;
+    for (size_t v : dimple) {
+      if (concave_weight == 0.0f)
+        EXPECT_LT((*field)[v], median) << "dimple vertex " << v;
+      else
+        EXPECT_GE((*field)[v], top5) << "dimple vertex " << v << " with plain |H|";
+    }
+  }
+}
+
 // Range: the field spans [min_importance, 1] and few vertices share the top,
 // on generated shapes from smooth to faceted (the paper's field put 50-90% of
 // the vertices at 1).
@@ -105,9 +140,14 @@ TEST(AttentionField, SpansItsRangeWithFewVerticesAtTheMaximum) {
     ASSERT_TRUE(field.ok()) << field.status().to_string();
     ASSERT_EQ(field->size(), shapes[i].vertex_count());
     const auto [lo, hi] = std::minmax_element(field->begin(), field->end());
-    // Equal values at either end share their mean rank.
+    // Equal values at either end share their mean rank (a dimple's concave
+    // floor, no cue at all with concave_weight 0, is one such run: a few
+    // vertices, so the bottom moves by a hair).
     EXPECT_GE(*lo, 0.3f - 1e-6f) << "shape " << i;
-    EXPECT_LT(*lo, 0.301f) << "shape " << i;
+    EXPECT_LT(*lo, 0.31f) << "shape " << i;
+    EXPECT_LE(double(std::count_if(field->begin(), field->end(), [&](float x) { return x <= *lo + 1e-6f; })),
+              0.05 * double(field->size()))
+        << "shape " << i;
     EXPECT_LE(*hi, 1.0f + 1e-6f) << "shape " << i;
     EXPECT_GT(*hi, 0.999f) << "shape " << i;
     EXPECT_LE(share_at_max(*field), 0.05) << "shape " << i;
@@ -293,6 +333,11 @@ TEST(AttentionField, RefusesBadOptionsAndHandlesNoVertices) {
   bad.view_bias = 1.5f;
   EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), bad, &field, kCpu).code(),
             StatusCode::kInvalidArgument);
+  bad = {};
+  bad.concave_weight = -0.5f;
+  const Status concave = cpu::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), bad, &field, kCpu);
+  EXPECT_EQ(concave.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(concave.message().find("concave_weight"), std::string::npos) << concave.message();
   bad = {};
   bad.min_importance = 0;
   EXPECT_EQ(cpu::attention_field(m.positions.data(), h.data(), nullptr, {}, m.vertex_count(), bad, &field, kCpu).code(),

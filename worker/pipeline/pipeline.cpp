@@ -133,6 +133,16 @@ double target_spacing(double area, uint32_t count) {
 
 // The back half's refinement for a level: elements a quarter of the output
 // spacing apart (cvt_elements_per_vertex per output vertex), and its bound.
+// The attention field's curvature (mean_curvatures: |H| with each concave
+// edge's term times options.concave_weight), as floats; *mean gets |H| itself,
+// which the density's curvature term uses.
+std::vector<float> attention_curvature(const Mesh& input, const AttentionFieldOptions& options,
+                                       std::vector<double>* mean) {
+  std::vector<double> weighted;
+  mean_curvatures(input, options.concave_weight, mean, &weighted);
+  return std::vector<float>(weighted.begin(), weighted.end());
+}
+
 double refine_max_edge(double spacing_out, const PipelineOptions& options) {
   return spacing_out / std::sqrt(options.cvt_elements_per_vertex);
 }
@@ -345,15 +355,14 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   // still lives.
   struct CurvatureAhead {
     std::vector<double> curvature;
-    std::vector<float> h;  // as floats, the field's input
+    std::vector<float> h;  // the field's curvature (concave edges weighed down), as floats
     AttentionPrep prep;    // empty when the field's options are bad (the stage reports them)
   };
   std::future<CurvatureAhead> curvature_beside;
   if (options.density != DensityMode::kPaper && front->curvature.empty())
     curvature_beside = std::async(std::launch::async, [&input, &options] {
       CurvatureAhead a;
-      a.curvature = mean_curvature(input);
-      a.h.assign(a.curvature.begin(), a.curvature.end());
+      a.h = attention_curvature(input, options.attention, &a.curvature);
       if (check_attention_field_args(options.attention, input.vertex_count(), a.h.data()).ok())
         a.prep = prepare_attention(input.positions.data(), a.h.data(), input.vertex_count(), options.attention);
       return a;
@@ -487,11 +496,12 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
                         ms_since(start));
           note = text;
         }
-        if (curvature.empty()) curvature = mean_curvature(input);
-        const bool prepared = !ahead.prep.fine.empty() && ahead.prep.fine.size() == input.vertex_count();
         std::vector<float> h_own;
-        if (!prepared) h_own.assign(curvature.begin(), curvature.end());
-        const float* h = prepared ? ahead.h.data() : h_own.data();
+        if (curvature.empty() || ahead.h.size() != input.vertex_count())
+          h_own = attention_curvature(input, options.attention, &curvature);
+        const bool prepared =
+            h_own.empty() && !ahead.prep.fine.empty() && ahead.prep.fine.size() == input.vertex_count();
+        const float* h = h_own.empty() ? ahead.h.data() : h_own.data();
         // The image cue: the front half's saliency points (stage 3), in the
         // same normalized space as the input's vertices.
         const FeaturePoints points{saliency_points.data(), saliency_points.size() / 3};

@@ -85,6 +85,9 @@ Status check_attention_field_args(const AttentionFieldOptions& o, size_t vertex_
     return invalid_argument("attention field: view_bias = " + std::to_string(o.view_bias) + ", it must lie in [0, 1]");
   if (o.view_bias > 0.0f && !(dot(o.view_direction, o.view_direction) > 0.0f))
     return invalid_argument("attention field: view_direction is zero or not finite");
+  if (!(o.concave_weight >= 0.0f && o.concave_weight <= 1.0f))
+    return invalid_argument("attention field: concave_weight = " + std::to_string(o.concave_weight) +
+                            ", it must lie in [0, 1]");
   if (!(o.min_importance > 0.0f && o.min_importance <= 1.0f))
     return invalid_argument("attention field: min_importance = " + std::to_string(o.min_importance) +
                             ", it must lie in (0, 1]");

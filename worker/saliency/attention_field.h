@@ -4,7 +4,8 @@
 //
 // Three cues, measured on ../shared/gaze/ (docs/perception.md):
 //  - Surface centre-surround (after Lee, Varshney and Jacobs, "Mesh saliency",
-//    SIGGRAPH 2005): |mean curvature| at the input's own scale and averaged
+//    SIGGRAPH 2005): the convex part of the mean curvature (concave edges
+//    weighed down, concave_weight below) at the input's own scale and averaged
 //    with Gaussian-like weights at a coarser scale (a fraction of the bounding-box
 //    diagonal), each over its median and capped, so that a small bump on a
 //    smooth surface stands out by its strength, not by a yes/no flag.
@@ -61,6 +62,14 @@ struct AttentionFieldOptions {
   // Towards the viewer, in the model's own frame (not normalized): +y up, +z
   // front, halfway between (a viewer in front and above the middle).
   Vec3 view_direction = {0.0f, 1.0f, 1.0f};
+  // The curvature cue's concave edges count this much of their dihedral
+  // angle (the caller computes the curvature it passes in with
+  // surface_density.h's mean_curvatures(mesh, concave_weight)): people look
+  // at convex protrusions and rims far more than at the creases where
+  // surfaces meet (docs/perception.md, "Convexity": on ../shared/gaze/ the
+  // mean AUC rises on every model as this falls, 0.680 at 1 to 0.708 at 0).
+  // 1: plain |H|; 0: the convex part only. In [0, 1].
+  float concave_weight = 0.0f;
   // Floor of the field, so that no region is starved: values lie in
   // [min_importance, 1]. In (0, 1].
   float min_importance = 0.2f;
