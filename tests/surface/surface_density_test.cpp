@@ -173,6 +173,23 @@ TEST(MeanCurvatureTest, ConcaveEdgesCountTheirWeight) {
   mean_curvatures(inside_out, 0.0, nullptr, &turned);
   for (size_t v = 0; v < dimpled.vertex_count(); ++v) EXPECT_NEAR(turned[v], weighted[v], 1e-9 * mean[v]) << v;
 
+  // Two parts, the second an inside-out copy moved aside: each part is
+  // turned round on its own, so both get the single dimpled sphere's values.
+  Mesh two = dimpled;
+  const uint32_t nv = uint32_t(dimpled.vertex_count());
+  for (size_t v = 0; v < inside_out.vertex_count(); ++v) {
+    two.positions.push_back(inside_out.positions[3 * v] + 5.0f);
+    two.positions.push_back(inside_out.positions[3 * v + 1]);
+    two.positions.push_back(inside_out.positions[3 * v + 2]);
+  }
+  for (uint32_t i : inside_out.indices) two.indices.push_back(i + nv);
+  std::vector<double> both;
+  mean_curvatures(two, 0.0, nullptr, &both);
+  for (uint32_t v = 0; v < nv; ++v) {
+    EXPECT_NEAR(both[v], weighted[v], 1e-9 * mean[v]) << v;
+    EXPECT_NEAR(both[nv + v], weighted[v], 1e-3 * mean[v]) << "copy of " << v;  // moved in float: rounded
+  }
+
   // One floor face turned round alone: its edges' faces disagree, so they keep
   // their whole terms, and its corners' values rise.
   size_t face = SIZE_MAX;

@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/median.h"
+#include "core/mesh_parts.h"
 #include "core/vec3.h"
 
 namespace vpr {
@@ -84,6 +85,40 @@ double signed_volume(const Mesh& mesh) {
   return v / 6.0;
 }
 
+namespace {
+
+// Per face: whether its part (faces joined by shared vertices) faces outwards,
+// by the part's signed volume about its own bounding-box centre, so that a
+// part stored inside out among others is turned round on its own.
+std::vector<char> faces_outwards(const Mesh& mesh) {
+  size_t parts = 0;
+  const std::vector<uint32_t> part = face_parts(mesh, &parts);
+  const float* p = mesh.positions.data();
+  std::vector<Vec3d> lo(parts, Vec3d{HUGE_VAL, HUGE_VAL, HUGE_VAL}), hi(parts, Vec3d{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL});
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    if (part[f] == UINT32_MAX) continue;
+    for (int c = 0; c < 3; ++c) {
+      const Vec3d x = load3d(p, mesh.indices[3 * f + c]);
+      Vec3d& l = lo[part[f]];
+      Vec3d& h = hi[part[f]];
+      l = {std::min(l.x, x.x), std::min(l.y, x.y), std::min(l.z, x.z)};
+      h = {std::max(h.x, x.x), std::max(h.y, x.y), std::max(h.z, x.z)};
+    }
+  }
+  std::vector<double> volume(parts, 0.0);
+  for (size_t f = 0; f < mesh.face_count(); ++f) {
+    if (part[f] == UINT32_MAX) continue;
+    const Vec3d o = 0.5 * (lo[part[f]] + hi[part[f]]);
+    const uint32_t* t = &mesh.indices[3 * f];
+    volume[part[f]] += dot(load3d(p, t[0]) - o, cross(load3d(p, t[1]) - o, load3d(p, t[2]) - o));
+  }
+  std::vector<char> out(mesh.face_count(), 1);
+  for (size_t f = 0; f < mesh.face_count(); ++f) out[f] = part[f] == UINT32_MAX || volume[part[f]] >= 0;
+  return out;
+}
+
+}  // namespace
+
 // The sums run in parallel with the same bits as one thread adding edge by
 // edge in (lower vertex, upper vertex) order and face by face: each vertex
 // gathers its own terms in that order (the faces it is a corner of, in face
@@ -147,11 +182,11 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
   // Each edge's term, 1/4 |dihedral angle| x length; weighted: the same
   // times concave_weight where the edge is concave (an edge of two faces
   // that run along it in opposite directions, the far corner of one below the
-  // other's plane, for a surface facing outwards: a negative signed volume
-  // turns the test round; an edge whose faces disagree on their orientation
-  // keeps its whole term).
+  // other's plane, for a part facing outwards: a part with a negative signed
+  // volume turns the test round; an edge whose faces disagree on their
+  // orientation keeps its whole term).
   const bool weigh = weighted != nullptr;
-  const bool outwards = !weigh || concave_weight == 1.0 || signed_volume(mesh) >= 0;
+  const std::vector<char> outwards = weigh && concave_weight != 1.0 ? faces_outwards(mesh) : std::vector<char>();
   auto runs_forward = [&](uint32_t face, uint32_t a, uint32_t b) {
     const uint32_t* t = &idx[3 * size_t(face)];
     return (t[0] == a && t[1] == b) || (t[1] == a && t[2] == b) || (t[2] == a && t[0] == b);
@@ -179,7 +214,7 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
         const uint32_t fa = halves[i].face, fb = halves[i + 1].face;
         if (runs_forward(fa, lo, hi) != runs_forward(fb, lo, hi)) {
           const double below = dot(normal[fa], load3d(p, far_corner(fb, lo, hi)) - load3d(p, lo));
-          const bool concave = outwards ? below > 0 : below < 0;
+          const bool concave = outwards[fa] ? below > 0 : below < 0;
           if (concave) w = concave_weight;
         }
       }

@@ -37,8 +37,9 @@ std::vector<double> mean_curvature(const Mesh& mesh);
 // noses, eyes, horns and rims draw the eye; the creases where surfaces meet
 // do not). Concave: an edge of two faces that run along it in opposite
 // directions, the far corner of one face on the outer side of the other's
-// plane, for a surface whose signed volume is positive (outwards; negative
-// turns the test round). An edge whose two faces disagree on their
+// plane, for a part (faces joined by shared vertices) whose signed volume
+// about its bounding-box centre is positive (outwards; negative turns the
+// test round for that part alone). An edge whose two faces disagree on their
 // orientation, a boundary edge and an edge of three or more faces keep their
 // whole term. With concave_weight 1, *weighted equals *mean bit for bit.
 void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double>* mean,
