@@ -137,21 +137,32 @@ CornerNormals corner_normals(const Mesh& mesh, const std::vector<uint32_t>& kept
     for (size_t v = r.begin(); v < r.end(); ++v) std::sort(corners.begin() + start[v], corners.begin() + start[v + 1]);
   });
 
+  // Welded vertex by welded vertex: its faces' normals gathered once, then
+  // each of its corners sums over them in face order.
   const float min_cos = float(std::cos(kSmoothingAngleDeg * M_PI / 180.0));
   out.normal.resize(3 * nk);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nk, 4096), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t c = r.begin(); c < r.end(); ++c) {
-      const Vec3 own = face_normals[c / 3];
-      Vec3d acc{0, 0, 0};
-      const uint32_t v = corner_vertex(c);
-      for (uint32_t i = start[v]; i < start[v + 1]; ++i) {
-        const uint32_t g = corners[i] / 3;
-        const float cosine = dot(face_normals[g], own);
-        if (std::abs(cosine) < min_cos) continue;
-        acc = acc + (cosine < 0 ? -1.0 : 1.0) * area_normals[g];
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, groups, 1024), [&](const tbb::blocked_range<size_t>& r) {
+    std::vector<Vec3> unit;
+    std::vector<Vec3d> weighted;
+    for (size_t v = r.begin(); v < r.end(); ++v) {
+      const uint32_t first = start[v], k = start[v + 1] - first;
+      unit.resize(k);
+      weighted.resize(k);
+      for (uint32_t i = 0; i < k; ++i) {
+        unit[i] = face_normals[corners[first + i] / 3];
+        weighted[i] = area_normals[corners[first + i] / 3];
       }
-      const double len = norm(acc);
-      out.normal[c] = len > 0 ? Vec3{float(acc.x / len), float(acc.y / len), float(acc.z / len)} : own;
+      for (uint32_t i = 0; i < k; ++i) {
+        const Vec3 own = unit[i];
+        Vec3d acc{0, 0, 0};
+        for (uint32_t j = 0; j < k; ++j) {
+          const float cosine = dot(unit[j], own);
+          if (std::abs(cosine) < min_cos) continue;
+          acc = acc + (cosine < 0 ? -1.0 : 1.0) * weighted[j];
+        }
+        const double len = norm(acc);
+        out.normal[corners[first + i]] = len > 0 ? Vec3{float(acc.x / len), float(acc.y / len), float(acc.z / len)} : own;
+      }
     }
   });
   return out;
