@@ -145,7 +145,8 @@ TEST(AttentionField, SpansItsRangeWithFewVerticesAtTheMaximum) {
     // vertices, so the bottom moves by a hair).
     EXPECT_GE(*lo, 0.3f - 1e-6f) << "shape " << i;
     EXPECT_LT(*lo, 0.31f) << "shape " << i;
-    EXPECT_LE(double(std::count_if(field->begin(), field->end(), [&](float x) { return x <= *lo + 1e-6f; })),
+    const float bottom = *lo;  // (a structured binding cannot be captured in C++17)
+    EXPECT_LE(double(std::count_if(field->begin(), field->end(), [&](float x) { return x <= bottom + 1e-6f; })),
               0.05 * double(field->size()))
         << "shape " << i;
     EXPECT_LE(*hi, 1.0f + 1e-6f) << "shape " << i;
