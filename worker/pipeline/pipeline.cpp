@@ -131,8 +131,6 @@ double target_spacing(double area, uint32_t count) {
   return std::sqrt(2.0 * area / (std::sqrt(3.0) * count));
 }
 
-// The back half's refinement for a level: elements a quarter of the output
-// spacing apart (cvt_elements_per_vertex per output vertex), and its bound.
 // The attention field's curvature (mean_curvatures: |H| with each concave
 // edge's term times options.concave_weight), as floats; *mean gets |H| itself,
 // which the density's curvature term uses.
@@ -143,6 +141,8 @@ std::vector<float> attention_curvature(const Mesh& input, const AttentionFieldOp
   return std::vector<float>(weighted.begin(), weighted.end());
 }
 
+// The back half's refinement for a level: elements a quarter of the output
+// spacing apart (cvt_elements_per_vertex per output vertex), and its bound.
 double refine_max_edge(double spacing_out, const PipelineOptions& options) {
   return spacing_out / std::sqrt(options.cvt_elements_per_vertex);
 }

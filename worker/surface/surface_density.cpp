@@ -72,16 +72,23 @@ std::vector<double> mean_curvature(const Mesh& mesh) {
   return h;
 }
 
+namespace {
+
+// Six times the signed volume of the tetrahedron from o to face f.
+double face_volume6(const Mesh& mesh, size_t f, Vec3d o) {
+  const float* p = mesh.positions.data();
+  const uint32_t* t = &mesh.indices[3 * f];
+  return dot(load3d(p, t[0]) - o, cross(load3d(p, t[1]) - o, load3d(p, t[2]) - o));
+}
+
+}  // namespace
+
 double signed_volume(const Mesh& mesh) {
   const Aabb box = bounding_box(mesh);
   const Vec3d o{0.5 * (double(box.lo[0]) + box.hi[0]), 0.5 * (double(box.lo[1]) + box.hi[1]),
                 0.5 * (double(box.lo[2]) + box.hi[2])};
-  const float* p = mesh.positions.data();
   double v = 0;
-  for (size_t f = 0; f < mesh.face_count(); ++f) {
-    const uint32_t* t = &mesh.indices[3 * f];
-    v += dot(load3d(p, t[0]) - o, cross(load3d(p, t[1]) - o, load3d(p, t[2]) - o));
-  }
+  for (size_t f = 0; f < mesh.face_count(); ++f) v += face_volume6(mesh, f, o);
   return v / 6.0;
 }
 
@@ -108,9 +115,7 @@ std::vector<char> faces_outwards(const Mesh& mesh) {
   std::vector<double> volume(parts, 0.0);
   for (size_t f = 0; f < mesh.face_count(); ++f) {
     if (part[f] == UINT32_MAX) continue;
-    const Vec3d o = 0.5 * (lo[part[f]] + hi[part[f]]);
-    const uint32_t* t = &mesh.indices[3 * f];
-    volume[part[f]] += dot(load3d(p, t[0]) - o, cross(load3d(p, t[1]) - o, load3d(p, t[2]) - o));
+    volume[part[f]] += face_volume6(mesh, f, 0.5 * (lo[part[f]] + hi[part[f]]));
   }
   std::vector<char> out(mesh.face_count(), 1);
   for (size_t f = 0; f < mesh.face_count(); ++f) out[f] = part[f] == UINT32_MAX || volume[part[f]] >= 0;
