@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <map>
 #include <numeric>
 #include <set>
@@ -19,6 +20,7 @@
 
 #include "core/mesh_parts.h"
 #include "core/vec3.h"
+#include "surface/bounding_sphere.h"
 #include "surface/edge_flips.h"
 
 namespace vpr {
@@ -50,6 +52,47 @@ Vector3d closest_on_triangle(const Vector3d& p, const Vector3d& a, const Vector3
   if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
   const double denom = 1.0 / (va + vb + vc);
   return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+// The faces of the surface that touch a cell (in face order), with their
+// bounding spheres.
+struct CellFaces {
+  std::vector<uint32_t> face;
+  std::vector<std::array<float, 4>> sphere;
+};
+
+// The nearest point to x on the faces of the given lists, in list order with
+// the first of equally near faces kept (what a plain loop over every face
+// gives); *best and *best_d are left alone when no face is nearer than
+// *best_d. The face with the nearest sphere is measured first; its distance
+// bounds the rest, and a face whose sphere is farther (with a relative margin
+// of 1e-6 for rounding) is skipped.
+void nearest_on_faces(const Vector3d& x, std::initializer_list<const CellFaces*> lists, const Mesh& surface,
+                      Vector3d* best, double* best_d) {
+  auto closest = [&](uint32_t f) {
+    const uint32_t* t = &surface.indices[3 * f];
+    return closest_on_triangle(x, eig(load3d(surface.positions.data(), t[0])),
+                               eig(load3d(surface.positions.data(), t[1])), eig(load3d(surface.positions.data(), t[2])));
+  };
+  double bound = INFINITY;
+  {
+    uint32_t first = UINT32_MAX;
+    double first_gap = INFINITY;
+    for (const CellFaces* faces : lists)
+      for (size_t i = 0; i < faces->face.size(); ++i) {
+        const double gap = sphere_gap2(x, faces->sphere[i]);
+        if (gap < first_gap) first_gap = gap, first = faces->face[i];
+      }
+    if (first == UINT32_MAX) return;
+    bound = (closest(first) - x).squaredNorm();
+  }
+  for (const CellFaces* faces : lists)
+    for (size_t i = 0; i < faces->face.size(); ++i) {
+      if (sphere_gap2(x, faces->sphere[i]) > std::min(bound, *best_d) * (1 + 1e-6)) continue;
+      const Vector3d q = closest(faces->face[i]);
+      const double d = (q - x).squaredNorm();
+      if (d < *best_d) *best_d = d, *best = q;
+    }
 }
 
 struct Quadric {
@@ -291,7 +334,7 @@ enum class Freedom : char { kFree, kAlongLine, kHeld };
 // triangles by more than a right angle is undone.
 void relax_tangentially(Mesh* mesh, const std::vector<uint32_t>& source, const std::vector<Freedom>& freedom,
                         const std::vector<Vector3d>& line, const Mesh& surface,
-                        const std::vector<std::vector<uint32_t>>& cell_faces) {
+                        const std::vector<CellFaces>& cell_faces) {
   const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
   auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
   std::vector<uint32_t> face_start(nv + 1, 0), faces_of(3 * nf);
@@ -344,19 +387,12 @@ void relax_tangentially(Mesh* mesh, const std::vector<uint32_t>& source, const s
       uint32_t toward = ring.front();
       for (uint32_t w : ring)
         if ((start[w] - x).squaredNorm() < (start[toward] - x).squaredNorm()) toward = w;
-      std::vector<uint32_t> cells = {source[v]};
-      if (source[toward] != source[v]) cells.push_back(source[toward]);
       double best_d = INFINITY;
       Vector3d best = start[v];
-      for (uint32_t cell : cells)
-        for (uint32_t f : cell_faces[cell]) {
-          const uint32_t* t = &surface.indices[3 * f];
-          const Vector3d q = closest_on_triangle(x, eig(load3d(surface.positions.data(), t[0])),
-                                                 eig(load3d(surface.positions.data(), t[1])),
-                                                 eig(load3d(surface.positions.data(), t[2])));
-          const double d = (q - x).squaredNorm();
-          if (d < best_d) best_d = d, best = q;
-        }
+      if (source[toward] != source[v])
+        nearest_on_faces(x, {&cell_faces[source[v]], &cell_faces[source[toward]]}, surface, &best, &best_d);
+      else
+        nearest_on_faces(x, {&cell_faces[source[v]]}, surface, &best, &best_d);
       moved[v] = best;
     }
   });
@@ -453,7 +489,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   std::vector<Quadric> quadric(count);
   std::vector<Vector3d> centroid(count, Vector3d::Zero());
   std::vector<double> weight(count, 0.0);
-  std::vector<std::vector<uint32_t>> cell_faces(count);
+  std::vector<CellFaces> cell_faces(count);
   for (size_t f = 0; f < nf; ++f) {
     const uint32_t* t = &surface.indices[3 * f];
     const Vector3d a = eig(load3d(surface.positions.data(), t[0])), b = eig(load3d(surface.positions.data(), t[1])),
@@ -468,7 +504,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       if (cell == UINT32_MAX || cell == seen[0] || cell == seen[1]) continue;
       seen[k] = cell;
       quadric[cell].add_plane(n, a, area);
-      cell_faces[cell].push_back(uint32_t(f));
+      cell_faces[cell].face.push_back(uint32_t(f));
     }
     for (int k = 0; k < 3; ++k) {
       const uint32_t cell = label[t[k]];
@@ -492,6 +528,19 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       }
     }
   }
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 64), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t cell = r.begin(); cell != r.end(); ++cell) {
+      CellFaces& cf = cell_faces[cell];
+      cf.sphere.resize(cf.face.size());
+      for (size_t i = 0; i < cf.face.size(); ++i) {
+        const uint32_t* t = &surface.indices[3 * size_t(cf.face[i])];
+        const Vector3d corner[3] = {eig(load3d(surface.positions.data(), t[0])),
+                                    eig(load3d(surface.positions.data(), t[1])),
+                                    eig(load3d(surface.positions.data(), t[2]))};
+        cf.sphere[i] = bounding_sphere(corner);
+      }
+    }
+  });
 
   // An input boundary loop met by exactly three cells: their triangle would
   // cap the hole (a small rim closes), so it is not made.
@@ -566,17 +615,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       if (pinned == 2) line[cell] = u.col(0);  // eigenvalues ascend: the free direction first
       Vector3d best = c;
       double best_d = INFINITY;
-      for (uint32_t f : cell_faces[cell]) {
-        const uint32_t* t = &surface.indices[3 * f];
-        const Vector3d q =
-            closest_on_triangle(x, eig(load3d(surface.positions.data(), t[0])),
-                                eig(load3d(surface.positions.data(), t[1])), eig(load3d(surface.positions.data(), t[2])));
-        const double d = (q - x).squaredNorm();
-        if (d < best_d) {
-          best_d = d;
-          best = q;
-        }
-      }
+      nearest_on_faces(x, {&cell_faces[cell]}, surface, &best, &best_d);
       for (int k = 0; k < 3; ++k) points[3 * cell + k] = float(best[k]);
     }
   });

@@ -1,0 +1,62 @@
+// Bounding spheres of triangles (surface/bounding_sphere.h): the lower bound
+// the dual's nearest-face searches rely on.
+#include "surface/bounding_sphere.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/mesh.h"
+#include "core/rng.h"
+#include "core/vec3.h"
+
+namespace vpr {
+namespace {
+
+// The nearest-face searches of the dual (cluster_mesh.cpp) skip a triangle
+// whose bounding sphere is farther than the best distance found: that is
+// exact only if the sphere's gap never exceeds the true distance, down to
+// the rounding of points on the triangle and far from the origin.
+TEST(BoundingSphere, HoldsItsCornersAndItsGapNeverExceedsTheDistance) {
+  for (uint64_t i = 0; i < 2000; ++i) {
+    const Philox4 r = random4(23, i, 0), s = random4(23, i, 1), t = random4(23, i, 2);
+    // Triangles of sizes 1e-4 to 1 (every fifth a sliver) at offsets up to 1e4.
+    const double size = std::pow(10.0, -4.0 * uniform01(r.v[3]));
+    const double offset = i % 3 == 0 ? 0.0 : std::pow(10.0, 4.0 * uniform01(s.v[3]));
+    const Vec3d base = {offset, -0.5 * offset, 0.25 * offset};
+    Vec3d c[3];
+    for (int k = 0; k < 3; ++k) {
+      const Philox4 q = random4(23, i, 3 + uint64_t(k));
+      c[k] = base + Vec3d{uniform01(q.v[0]), uniform01(q.v[1]), uniform01(q.v[2])} * size;
+    }
+    if (i % 5 == 0) c[2] = c[0] * 0.5 + c[1] * 0.5 + Vec3d{0, 0, 1e-9 * size};
+    // The corners as float positions are stored, then widened.
+    Eigen::Vector3d corner[3];
+    for (int k = 0; k < 3; ++k) corner[k] = {double(float(c[k].x)), double(float(c[k].y)), double(float(c[k].z))};
+    const Vec3d a = {corner[0].x(), corner[0].y(), corner[0].z()}, b = {corner[1].x(), corner[1].y(), corner[1].z()},
+                e = {corner[2].x(), corner[2].y(), corner[2].z()};
+    const std::array<float, 4> sphere = bounding_sphere(corner);
+    for (const Eigen::Vector3d& k : corner) EXPECT_EQ(sphere_gap2(k, sphere), 0.0) << "triangle " << i;
+    // Queries on the triangle, just off it and far from it.
+    for (int j = 0; j < 4; ++j) {
+      const double u = uniform01(t.v[j % 4]), v = (1 - u) * uniform01(r.v[j % 3]);
+      const double away = (j == 0 ? 0.0 : j == 1 ? 1e-6 : j == 2 ? 1e-2 : 100.0) * size;
+      const Vec3d on = a * (1 - u - v) + b * u + e * v;
+      const Vec3d p = on + Vec3d{away, -away, 0.5 * away};
+      const double gap = sphere_gap2({p.x, p.y, p.z}, sphere);
+      // The gap may not exceed the distance to any point of the triangle:
+      // here a grid of barycentric steps of 1/16, corners and edges included.
+      double distance = INFINITY;
+      for (int k = 0; k <= 16; ++k)
+        for (int l = 0; k + l <= 16; ++l)
+          distance = std::min(distance, norm2(p - (a * ((16 - k - l) / 16.0) + b * (k / 16.0) + e * (l / 16.0))));
+      EXPECT_LE(gap, distance) << "triangle " << i << " query " << j;
+      // The margin the searches allow (1e-6 relative) is not needed here.
+      if (j == 3) EXPECT_GT(gap, 0.0) << "triangle " << i << ": a point 100 sizes away is outside the sphere";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace vpr
