@@ -12,6 +12,9 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--lod", values.lod,
                   "Levels of detail instead of -n: counts or fractions of the input's vertices, e.g. 20000,5000,0.01; "
                   "the views and the field are computed once for all");
+  cmd->add_flag("--levels-one-at-a-time", values.levels_one_at_a_time,
+                "Run a --lod chain's levels one after another instead of side by side (the same meshes; for "
+                "measuring)");
   cmd->add_option("--min-ssim", values.min_ssim,
                   "A level with a visual target: the fewest vertices whose output keeps this mean SSIM against the "
                   "input over the job's views (after any --lod levels)");
@@ -85,6 +88,7 @@ Status apply_pipeline_flags(const PipelineFlagValues& values, PipelineOptions* o
   o->density = parse_density_mode(values.density).value();
   o->views.pca_align = !values.no_pca;
   o->attention.image_cue = values.image_cue;
+  o->levels_side_by_side = !values.levels_one_at_a_time;
   if (!values.rotation.empty()) {
     if (values.rotation.size() != 9) return invalid_argument("--rotation needs 9 numbers (row-major 3x3)");
     std::array<double, 9> r{};

@@ -19,6 +19,7 @@ struct PipelineFlagValues {
   std::vector<double> rotation;
   // Levels of detail (issue 20): --lod COUNT|FRACTION,... and --min-ssim S.
   std::string lod;
+  bool levels_one_at_a_time = false;  // --levels-one-at-a-time
   double min_ssim = 0;
   uint32_t screen_px = 0;
 };

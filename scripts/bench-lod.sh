@@ -3,7 +3,9 @@
 #   scripts/bench-lod.sh [VPREMESH] [MODEL] [LEVELS] [VISUAL_MODELS...]
 # 1. MODEL (default igea) as one chain of LEVELS (default 50000,20000,5000,1000)
 #    against the same levels as separate jobs, `vpremesh local` each, in the
-#    same run, alternating chain and separate jobs ROUNDS times (default 1).
+#    same run, alternating chain and separate jobs ROUNDS times (default 1);
+#    the chain both with its levels side by side (the default) and one at a
+#    time (--levels-one-at-a-time).
 # 2. Each of VISUAL_MODELS (default: every shared model) with --min-ssim
 #    MIN_SSIM (default 0.97): the count chosen, the tries, the time, against
 #    one job at that count; then SWEEP counts 2%, 4%, ... below the chosen one
@@ -36,17 +38,19 @@ wall() {  # seconds a command takes, its output to $work/last.json
 
 echo "## Chain against separate jobs: $(basename "$model") -> $levels"
 echo
-echo "| round | chain s | separate s | chain / separate |"
-echo "|---:|---:|---:|---:|"
+echo "| round | chain s | chain, levels one at a time s | separate s | chain / separate | one at a time / separate |"
+echo "|---:|---:|---:|---:|---:|---:|"
 for r in $(seq 1 "$rounds"); do
   chain=$(wall "$bin" local "$model" --lod "$levels" -o "$work/chain.ply" --json "${flags[@]}")
+  serial=$(wall "$bin" local "$model" --lod "$levels" --levels-one-at-a-time -o "$work/serial.ply" --json "${flags[@]}")
   separate=0
   IFS=, read -r -a counts <<<"$levels"
   for n in "${counts[@]}"; do
     s=$(wall "$bin" local "$model" -n "$n" -o "$work/alone-$n.ply" --json "${flags[@]}")
     separate=$(awk -v a="$separate" -v b="$s" 'BEGIN { printf "%.3f", a + b }')
   done
-  printf '| %d | %.2f | %.2f | %.2f |\n' "$r" "$chain" "$separate" "$(awk -v a="$chain" -v b="$separate" 'BEGIN { print a / b }')"
+  printf '| %d | %.2f | %.2f | %.2f | %.2f | %.2f |\n' "$r" "$chain" "$serial" "$separate" \
+    "$(awk -v a="$chain" -v b="$separate" 'BEGIN { print a / b }')" "$(awk -v a="$serial" -v b="$separate" 'BEGIN { print a / b }')"
 done
 echo
 

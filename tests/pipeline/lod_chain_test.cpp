@@ -3,11 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "eval/visual_similarity.h"
@@ -55,7 +58,10 @@ TEST(LodChain, ThreeLevelsInOrderWithTheFrontHalfOnceEachAsIfRunAlone) {
   LevelTarget quarter;
   quarter.fraction = 0.25;
   std::vector<StageTiming> live;
-  const std::vector<PipelineResult> levels = run_levels(mesh, small_views(), {count(1500), count(600), quarter}, &live);
+  // One at a time (LevelsSideBySide... below checks the default against it).
+  PipelineOptions serial = small_views();
+  serial.levels_side_by_side = false;
+  const std::vector<PipelineResult> levels = run_levels(mesh, serial, {count(1500), count(600), quarter}, &live);
   ASSERT_EQ(levels.size(), 3u);
   const uint32_t asked[3] = {1500, 600, 641};  // 0.25 x 2,562, rounded
   const std::set<std::string> front = {"views",     "render",     "image_saliency",
@@ -202,6 +208,69 @@ TEST(LodChain, VisualTargetFindsTheFewestVerticesThatKeepTheBound) {
   for (const auto& [n, ssim] : measured)
     if (n < r.target / 1.02) ++below, passing += ssim >= kBound;
   EXPECT_LE(passing * 4, below) << table;
+}
+
+// Levels side by side (the default for count levels) give the bits one at a
+// time gives, are delivered in order, and the callbacks never overlap (each
+// sleeps a little, so an overlap would be caught); a level callback's error
+// stops the chain there.
+TEST(LodChain, LevelsSideBySideMatchOneAtATimeWithCallbacksOneAtATime) {
+  const Mesh mesh = bumpy_sphere();
+  const std::vector<LevelTarget> asked = {count(1200), count(400), count(800), count(150)};
+  PipelineOptions serial = small_views();
+  serial.levels_side_by_side = false;
+  const std::vector<PipelineResult> one_at_a_time = run_levels(mesh, serial, asked);
+
+  std::atomic<int> inside{0}, overlaps{0};
+  auto guarded = [&](auto&& body) {
+    if (inside.fetch_add(1) != 0) ++overlaps;
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+    body();
+    inside.fetch_sub(1);
+  };
+  PipelineOptions o = small_views();
+  o.on_stage_begin = [&](const char*) { guarded([] {}); };
+  o.keep_going = [&]() {
+    bool go = true;
+    guarded([] {});
+    return go;
+  };
+  std::vector<StageTiming> live;
+  o.on_stage = [&](const StageTiming& t) { guarded([&] { live.push_back(t); }); };
+  std::vector<PipelineResult> side_by_side;
+  Status s = run_pipeline_levels(mesh, o, asked, [&](PipelineResult&& r) {
+    guarded([&] { side_by_side.push_back(std::move(r)); });
+    return Status::Ok();
+  });
+  ASSERT_TRUE(s.ok()) << s.to_string();
+  EXPECT_EQ(overlaps.load(), 0);
+  // Live events as one at a time sends them: the front half, then each
+  // level's stages in level order (a later level's are held back).
+  const std::vector<std::string> back = {"density", "cvt", "meshing"};
+  for (size_t k = 1; k < live.size(); ++k) EXPECT_LE(live[k - 1].level, live[k].level) << live[k].name;
+  for (size_t i = 0; i < asked.size(); ++i) {
+    std::vector<std::string> names;
+    for (const StageTiming& t : live)
+      if (t.level == int(i)) names.push_back(t.name);
+    EXPECT_EQ(names, back) << "level " << i;
+  }
+  ASSERT_EQ(side_by_side.size(), asked.size());
+  ASSERT_EQ(one_at_a_time.size(), asked.size());
+  for (size_t i = 0; i < asked.size(); ++i) {
+    EXPECT_EQ(side_by_side[i].level, int(i));
+    EXPECT_EQ(side_by_side[i].mesh.positions, one_at_a_time[i].mesh.positions) << "level " << i;
+    EXPECT_EQ(side_by_side[i].mesh.indices, one_at_a_time[i].mesh.indices) << "level " << i;
+    EXPECT_EQ(side_by_side[i].saliency, one_at_a_time[i].saliency) << "level " << i;
+  }
+
+  // The second level's delivery fails: the first was delivered, nothing after.
+  std::vector<int> delivered;
+  s = run_pipeline_levels(mesh, small_views(), asked, [&](PipelineResult&& r) {
+    delivered.push_back(r.level);
+    return r.level == 1 ? Status(StatusCode::kInternal, "the client went away") : Status::Ok();
+  });
+  EXPECT_EQ(s.code(), StatusCode::kInternal);
+  EXPECT_EQ(delivered, (std::vector<int>{0, 1}));
 }
 
 // A screen-size target judges the views at the model's size on screen: seen

@@ -3,14 +3,18 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <deque>
 #include <filesystem>
 #include <future>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <utility>
@@ -298,6 +302,7 @@ struct FrontHalf {
   // each next count level's while the one before it runs. Declared after
   // `input`, so an early return waits for them before `input` goes.
   std::deque<std::pair<uint32_t, std::future<StatusOr<RefinedSurface>>>> refined_ahead;
+  std::mutex refined_ahead_mutex;  // levels run side by side take theirs at once
   // Front-half stage timings and everything every level reports alike
   // (renderer, device, counts, the input field except the paper's).
   PipelineResult shared;
@@ -549,13 +554,19 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             channels[2 * v] = result.input_importance[v];
             channels[2 * v + 1] = d[v];
           }
-          auto ahead = std::find_if(front.refined_ahead.begin(), front.refined_ahead.end(),
-                                    [&](const auto& a) { return a.first == options.target_vertices; });
-          const bool made_ahead = ahead != front.refined_ahead.end();
+          std::future<StatusOr<RefinedSurface>> ahead;
+          {
+            std::lock_guard<std::mutex> lock(front.refined_ahead_mutex);
+            auto it = std::find_if(front.refined_ahead.begin(), front.refined_ahead.end(),
+                                   [&](const auto& a) { return a.first == options.target_vertices; });
+            if (it != front.refined_ahead.end()) {
+              ahead = std::move(it->second);
+              front.refined_ahead.erase(it);
+            }
+          }
+          const bool made_ahead = ahead.valid();
           if (made_ahead) {
-            StatusOr<RefinedSurface> made = ahead->second.get();
-            front.refined_ahead.erase(ahead);
-            VPR_ASSIGN_OR_RETURN(refined, std::move(made));
+            VPR_ASSIGN_OR_RETURN(refined, ahead.get());
             VPR_RETURN_IF_ERROR(carry_values(channels, 2, &refined));
           } else {
             VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, refine_max_edge(spacing_out, options),
@@ -794,6 +805,98 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   return result;
 }
 
+// A level's colors (from the given mesh, when it has colors or textures:
+// color_transfer.h) and its time since the job began.
+Status finish_level(const FrontHalf& front, const Mesh& given, const PipelineOptions& options, PipelineResult* result) {
+  finish_output(front.norm, front.used, front.given_vertices, options.field.min_importance, result);
+  if (has_appearance(given)) {
+    StageRunner stage(options, result, result->level);
+    VPR_RETURN_IF_ERROR(
+        stage.run("colors", "cpu", [&] { return transfer_colors(given, result->mesh, &result->mesh.colors); }));
+  }
+  return Status::Ok();
+}
+
+// Count levels of the surface CVT, run side by side (PipelineOptions::
+// levels_side_by_side): each level's back half is one task of a task group,
+// so TBB runs one level's parallel loops on the cores another's serial steps
+// leave idle. Each stage is deterministic on any thread count, so every level
+// has the bits it has alone. A level is delivered as soon as it and the
+// levels before it are done, and its stage events stream in level order (as
+// one at a time); the callbacks are called under one lock, never two at
+// once; a failure (the first in level order) stops the later levels at their
+// next stage.
+Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const PipelineOptions& options,
+                               const std::vector<uint32_t>& counts, const LevelCallback& on_level) {
+  struct Slot {
+    bool done = false;
+    Status status;
+    PipelineResult result;
+    std::vector<StageTiming> held;  // its stage events, until the levels before it are delivered
+  };
+  std::vector<Slot> slots(counts.size());
+  size_t next = 0;  // the first level not yet delivered
+  Status failed;
+  std::mutex callbacks;
+  std::atomic<bool> stop{false};
+  PipelineOptions shared = options;
+  shared.keep_going = [&]() {
+    if (stop.load()) return false;
+    std::lock_guard<std::mutex> lock(callbacks);
+    return !options.keep_going || options.keep_going();
+  };
+  // Stage events stream in level order, as one at a time: the first level
+  // not yet delivered reports live, a later one's are held until its turn.
+  shared.on_stage = [&](const StageTiming& t) {
+    std::lock_guard<std::mutex> lock(callbacks);
+    if (!options.on_stage) return;
+    if (t.level == int(next)) options.on_stage(t);
+    else if (t.level > int(next) && size_t(t.level) < slots.size()) slots[size_t(t.level)].held.push_back(t);
+  };
+  if (options.on_stage_begin)
+    shared.on_stage_begin = [&](const char* name) {
+      std::lock_guard<std::mutex> lock(callbacks);
+      options.on_stage_begin(name);
+    };
+  // With `callbacks` held: from `next` on, each level's held events, then
+  // the level itself if it is done.
+  auto deliver = [&]() {
+    for (; next < slots.size() && failed.ok(); ++next) {
+      Slot& slot = slots[next];
+      for (const StageTiming& t : slot.held) options.on_stage(t);
+      slot.held.clear();
+      if (!slot.done) break;
+      failed = slot.status;
+      if (!failed.ok()) break;
+      slot.result.total_ms = ms_since(front.start);
+      failed = on_level(std::move(slot.result));
+      slot.result = PipelineResult();
+    }
+    if (!failed.ok()) stop.store(true);
+  };
+  // Each level isolated: a thread waiting inside one level's parallel loop
+  // takes work of that level only, never a whole other level (which would
+  // hold the first one up, or run a callback under the lock it waits on).
+  // Spawned last, the first level is the one the calling thread takes first.
+  tbb::task_group group;
+  for (size_t i = counts.size(); i-- > 0;)
+    group.run([&, i] {
+      tbb::this_task_arena::isolate([&] {
+        Slot& slot = slots[i];
+        PipelineOptions level_options = shared;
+        level_options.target_vertices = counts[i];
+        slot.result = level_result(front, int(i), counts[i]);
+        slot.status = run_back_half(front, level_options, int(i), &slot.result);
+        if (slot.status.ok()) slot.status = finish_level(front, given, shared, &slot.result);
+        std::lock_guard<std::mutex> lock(callbacks);
+        slot.done = true;
+        deliver();
+      });
+    });
+  group.wait();
+  return failed;
+}
+
 }  // namespace
 
 Status check_levels(const std::vector<LevelTarget>& levels) {
@@ -872,6 +975,9 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
   };
   refine_ahead(0);
   VPR_RETURN_IF_ERROR(run_front_half(options, &front));
+  const bool all_counts = std::all_of(levels.begin(), levels.end(), [](const LevelTarget& l) { return l.min_ssim == 0; });
+  if (options.levels_side_by_side && levels.size() > 1 && all_counts && options.density != DensityMode::kPaper)
+    return run_levels_side_by_side(front, given, options, counts, on_level);
 
   for (size_t i = 0; i < levels.size(); ++i) {
     refine_ahead(i + 1);
@@ -884,14 +990,7 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
       level_options.target_vertices = counts[i];
       VPR_RETURN_IF_ERROR(run_back_half(front, level_options, int(i), &result));
     }
-    finish_output(front.norm, front.used, front.given_vertices, options.field.min_importance, &result);
-    // Colored from the input when it has colors or textures
-    // (color_transfer.h: the given mesh, every part of it).
-    if (has_appearance(given)) {
-      StageRunner stage(options, &result, int(i));
-      VPR_RETURN_IF_ERROR(
-          stage.run("colors", "cpu", [&] { return transfer_colors(given, result.mesh, &result.mesh.colors); }));
-    }
+    VPR_RETURN_IF_ERROR(finish_level(front, given, options, &result));
     result.total_ms = ms_since(front.start);
     VPR_RETURN_IF_ERROR(on_level(std::move(result)));
   }

@@ -102,10 +102,18 @@ struct PipelineOptions {
   // The most vertices a level whose count is found at run time (a fraction
   // of the input, a visual target) may have: a server's --max-target-vertices.
   uint32_t max_level_vertices = kMaxTargetVertices;
+  // A chain of count levels runs its levels' back halves side by side (the
+  // surface CVT's stages, on the CPU, whose bits do not depend on the
+  // threads): the cores one level's serial steps leave idle run the others.
+  // The levels are still delivered in order, each with the same bits as
+  // alone; false runs them one at a time (`--levels-one-at-a-time`).
+  bool levels_side_by_side = true;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
-  // Called as each stage ends (from the pipeline's thread), e.g. to stream
-  // progress; the StageTiming is final.
+  // Called as each stage ends, e.g. to stream progress; the StageTiming is
+  // final. The pipeline never makes two calls of these callbacks (nor of a
+  // chain's level callback) at once, though levels run side by side may make
+  // them from different threads.
   std::function<void(const StageTiming&)> on_stage;
   // Called as each stage starts, with its name (the service's job processes
   // report the stage a crash happened in).
