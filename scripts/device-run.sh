@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs ON the device machine (NVIDIA H100), from the repository root, with
 # .pack/ (scripts/device-bundle.sh) and .gl/ (the GL loader debs) carried:
-#   scripts/device-run.sh [tests|bench|all|suite|load|queue|isolation|density|targets|field] [bench arguments...]
+#   scripts/device-run.sh [tests|bench|all|suite|load|queue|isolation|density|targets|field|lod] [bench arguments...]
 # Writes under $OUT: device.txt, gpu-tests.log, bench.md; `load` (not part of
 # all) writes load.md: vpremesh-server with --device cuda and 1, 2, 4 workers,
 # driven by `vpremesh bench` closed and open loop (scripts/bench-load.sh);
@@ -52,6 +52,18 @@ if [ "$mode" = suite ]; then
   $B --device cuda --repeat 3 --peers none --concurrency 8 --jobs 32 "$M/horse.ply:5000" 2>>"$OUT/bench.err" |
     tee "$OUT/bench-concurrency.md"
   grep -v '\.\.\.$' "$OUT/bench.err" | tail -30
+fi
+if [ "$mode" = lod ]; then
+  # Issue 20's chain and a visual target (scripts/bench-lod.sh): the GPU path,
+  # then the CPUs only (16 threads). Visual-target models as arguments
+  # (default kitten), SWEEP counts below each (default 0).
+  M=.bundle/models
+  visual=("$@")
+  [ ${#visual[@]} -gt 0 ] || visual=("$M/kitten.obj")
+  ROUNDS=${ROUNDS:-2} SWEEP=${SWEEP:-0} bash scripts/bench-lod.sh .bundle/bin/vpremesh "$M/igea.ply" \
+    50000,20000,5000,1000 "${visual[@]}" | tee "$OUT/lod-gpu.md"
+  CUDA_VISIBLE_DEVICES= ROUNDS=${ROUNDS:-2} SWEEP=${SWEEP:-0} bash scripts/bench-lod.sh \
+    .bundle/bin/vpremesh "$M/igea.ply" 50000,20000,5000,1000 "${visual[@]}" | tee "$OUT/lod-cpu.md"
 fi
 if [ "$mode" = load ]; then
   # About 3 minutes: runs that would start after BUDGET_S are skipped and listed.
