@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <deque>
 #include <filesystem>
+#include <functional>
 #include <future>
 #include <mutex>
 #include <optional>
@@ -820,7 +821,7 @@ Status finish_level(const FrontHalf& front, const Mesh& given, const PipelineOpt
 // Count levels of the surface CVT, run side by side (PipelineOptions::
 // levels_side_by_side): each level's back half is one task of a task group,
 // so TBB runs one level's parallel loops on the cores another's serial steps
-// leave idle. Each stage is deterministic on any thread count, so every level
+// leave idle, as many levels at once as fit the memory one at a time holds. Each stage is deterministic on any thread count, so every level
 // has the bits it has alone. A level is delivered as soon as it and the
 // levels before it are done, and its stage events stream in level order (as
 // one at a time); the callbacks are called under one lock, never two at
@@ -874,25 +875,52 @@ Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const Pipeli
     }
     if (!failed.ok()) stop.store(true);
   };
-  // Each level isolated: a thread waiting inside one level's parallel loop
-  // takes work of that level only, never a whole other level (which would
-  // hold the first one up, or run a callback under the lock it waits on).
-  // Spawned last, the first level is the one the calling thread takes first.
+  // Levels start in order while their surfaces fit in what one at a time
+  // holds: a level's and the next one's refinement made ahead, so the two
+  // largest levels' estimates (the input's vertices plus the elements per
+  // vertex times the count) together. A level that ends makes room for the
+  // next ones. Each level is isolated: a thread waiting inside one level's
+  // parallel loop takes work of that level only, never a whole other level
+  // (which would hold the first one up, or run a callback under the lock it
+  // waits on).
+  std::vector<double> size(counts.size());
+  for (size_t i = 0; i < counts.size(); ++i)
+    size[i] = double(front.input.vertex_count()) + options.cvt_elements_per_vertex * double(counts[i]);
+  std::vector<double> largest = size;
+  std::sort(largest.begin(), largest.end(), std::greater<double>());
+  const double budget = largest[0] + (largest.size() > 1 ? largest[1] : 0.0);
+  std::mutex admit;
+  size_t started = 0;
+  double running = 0;
   tbb::task_group group;
-  for (size_t i = counts.size(); i-- > 0;)
-    group.run([&, i] {
-      tbb::this_task_arena::isolate([&] {
+  std::function<void()> start_more = [&]() {  // with `admit` held
+    while (started < counts.size() && (running == 0 || running + size[started] <= budget)) {
+      const size_t i = started++;
+      running += size[i];
+      group.run([&, i] {
         Slot& slot = slots[i];
-        PipelineOptions level_options = shared;
-        level_options.target_vertices = counts[i];
-        slot.result = level_result(front, int(i), counts[i]);
-        slot.status = run_back_half(front, level_options, int(i), &slot.result);
-        if (slot.status.ok()) slot.status = finish_level(front, given, shared, &slot.result);
+        tbb::this_task_arena::isolate([&] {
+          PipelineOptions level_options = shared;
+          level_options.target_vertices = counts[i];
+          slot.result = level_result(front, int(i), counts[i]);
+          slot.status = run_back_half(front, level_options, int(i), &slot.result);
+          if (slot.status.ok()) slot.status = finish_level(front, given, shared, &slot.result);
+        });
+        {
+          std::lock_guard<std::mutex> lock(admit);
+          running -= size[i];
+          start_more();
+        }
         std::lock_guard<std::mutex> lock(callbacks);
         slot.done = true;
-        deliver();
+        tbb::this_task_arena::isolate([&] { deliver(); });
       });
-    });
+    }
+  };
+  {
+    std::lock_guard<std::mutex> lock(admit);
+    start_more();
+  }
   group.wait();
   return failed;
 }
