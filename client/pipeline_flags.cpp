@@ -61,6 +61,12 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
   cmd->add_option("--attention-sigma", o.attention.coarse_sigma,
                   "Attention field: coarse curvature scale, a fraction of the bounding-box diagonal")
       ->capture_default_str();
+  cmd->add_option("--attention-top", o.attention_boost.top,
+                  "Perception density: share of the vertices (the field's highest) whose density is raised")
+      ->capture_default_str();
+  cmd->add_option("--attention-boost", o.attention_boost.boost,
+                  "Perception density: the density's factor at the field's top (1: no raise)")
+      ->capture_default_str();
   cmd->add_option("--concave-weight", o.attention.concave_weight,
                   "Attention field: share of a concave edge's curvature the cue keeps (1: |H|, 0: convex only)")
       ->capture_default_str();

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string>
 #include <vector>
 
 #include "core/vec3.h"
@@ -206,6 +207,55 @@ TEST(MeanCurvatureTest, ConcaveEdgesCountTheirWeight) {
     const uint32_t v = dimpled.indices[3 * face + c];
     EXPECT_GT(mixed[v], weighted[v] + 0.2 * mean[v]) << "corner " << v;
   }
+}
+
+// The perception density's attention term: the field's top share raised,
+// from 1 at the share's edge to the boost at the top, the rest untouched;
+// equal values share their rank; a non-finite value counts as the lowest.
+TEST(AttentionBoostTest, RaisesOnlyTheTopShareUpToTheBoost) {
+  const size_t n = 101;  // ranks 0, 0.01, ..., 1
+  std::vector<float> importance(n);
+  for (size_t v = 0; v < n; ++v) importance[v] = float((v * 37) % n) / float(n);  // a shuffled ramp
+  const std::vector<double> flat(n, 1.0);  // |H| alike everywhere: a curvature term of 1
+  AttentionBoost boost;
+  boost.top = 0.2;
+  boost.boost = 1.5;
+  const std::vector<float> d = vertex_density(flat, importance, DensityMode::kPerception, boost);
+  ASSERT_EQ(d.size(), n);
+  for (size_t v = 0; v < n; ++v) {
+    const double q = double((v * 37) % n) / double(n - 1);
+    if (q <= 0.8 + 1e-12) EXPECT_EQ(d[v], 1.0f) << "rank " << q;
+    else EXPECT_NEAR(d[v], std::pow(1.5, (q - 0.8) / 0.2), 1e-6) << "rank " << q;
+  }
+  EXPECT_NEAR(*std::max_element(d.begin(), d.end()), 1.5f, 1e-6);
+  // Other modes ignore the field; a boost of 1 leaves the density alone.
+  for (float x : vertex_density(flat, importance, DensityMode::kCurvature, boost)) EXPECT_EQ(x, 1.0f);
+  boost.boost = 1;
+  for (float x : vertex_density(flat, importance, DensityMode::kPerception, boost)) EXPECT_EQ(x, 1.0f);
+
+  // Ties share their mean rank: a field of two values raises the upper half
+  // alike (mean rank 0.75: 1.5^((0.75 - 0.5) / 0.5) with top 0.5); NaN and
+  // infinities are the lowest.
+  std::vector<float> two = {0.2f, 0.9f, 0.2f, 0.9f, NAN, 0.9f, 0.2f, 0.9f};
+  two.push_back(INFINITY);
+  boost.top = 0.5;
+  boost.boost = 1.5;
+  const std::vector<float> t = vertex_density(std::vector<double>(two.size(), 1.0), two, DensityMode::kPerception, boost);
+  // Ranks: NaN and inf (tied lowest: 0 and 1 of 8), three 0.2s (2-4), four 0.9s (5-8, mean 6.5 / 8).
+  EXPECT_EQ(t[4], 1.0f);
+  EXPECT_EQ(t[8], 1.0f);
+  EXPECT_EQ(t[0], 1.0f);
+  const float upper = float(std::pow(1.5, (6.5 / 8 - 0.5) / 0.5));
+  for (size_t v : {1, 3, 5, 7}) EXPECT_NEAR(t[v], upper, 1e-6) << v;
+
+  // The options' ranges, named.
+  EXPECT_TRUE(check_attention_boost(AttentionBoost{}).ok());
+  const Status top = check_attention_boost(AttentionBoost{0.0, 1.5});
+  EXPECT_NE(top.message().find("--attention-top"), std::string::npos) << top.to_string();
+  EXPECT_NE(top.message().find("(0, 1]"), std::string::npos) << top.to_string();
+  const Status high = check_attention_boost(AttentionBoost{0.2, 5});
+  EXPECT_NE(high.message().find("[1, 4]"), std::string::npos) << high.to_string();
+  EXPECT_FALSE(check_attention_boost(AttentionBoost{0.2, NAN}).ok());
 }
 
 }  // namespace

@@ -250,6 +250,7 @@ Status validate_options(const PipelineOptions& o) {
     return invalid_argument("target of " + std::to_string(o.target_vertices) +
                             " vertices is outside the supported range [" + std::to_string(kMinTargetVertices) + ", " +
                             std::to_string(kMaxTargetVertices) + "]");
+  VPR_RETURN_IF_ERROR(check_attention_boost(o.attention_boost));
   if (o.views.count != 6 && o.views.count != 14)
     return invalid_argument("views must be 6 or 14, got " + std::to_string(o.views.count));
   if (o.views.resolution < 64 || o.views.resolution > 4096)
@@ -549,7 +550,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
     VPR_RETURN_IF_ERROR(stage.run(
         "density", cpu,
         [&]() -> Status {
-          const std::vector<float> d = vertex_density(front.curvature, result.input_importance, options.density);
+          const std::vector<float> d = vertex_density(front.curvature, result.input_importance, options.density, options.attention_boost);
           std::vector<float> channels(2 * input.vertex_count());
           for (size_t v = 0; v < input.vertex_count(); ++v) {
             channels[2 * v] = result.input_importance[v];

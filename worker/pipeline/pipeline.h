@@ -76,6 +76,9 @@ struct PipelineOptions {
   // shared model (docs/quality.md, "What the guidance buys") it wins on SSIM and
   // Hausdorff; kPerception becomes the default once it wins (docs/perception.md).
   DensityMode density = DensityMode::kCurvature;
+  // kPerception's attention term: the field's top share raised, up to a
+  // factor at the top (surface_density.h; --attention-top, --attention-boost).
+  AttentionBoost attention_boost;
   CvtOptions cvt;                   // its seed is sampling.seed; its anisotropy is set from `anisotropy`
   // The CVT's anisotropy as a share of the bounding-box diagonal (each
   // element at (x, a n) in R^6, surface_cvt.h); 0: isotropic. 0.04 by

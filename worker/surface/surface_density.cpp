@@ -4,6 +4,7 @@
 #include <atomic>
 #include <functional>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 
 #include <tbb/blocked_range.h>
@@ -252,13 +253,27 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
   if (weighted) per_vertex(weighted_term, weighted);
 }
 
-std::vector<float> vertex_density(const Mesh& mesh, const std::vector<float>& importance, DensityMode mode) {
+Status check_attention_boost(const AttentionBoost& b) {
+  char text[128];
+  if (!(b.top > 0 && b.top <= 1)) {
+    std::snprintf(text, sizeof text, "attention top share (--attention-top) %g is outside (0, 1]", b.top);
+    return invalid_argument(text);
+  }
+  if (!(b.boost >= 1 && b.boost <= 4)) {
+    std::snprintf(text, sizeof text, "attention boost (--attention-boost) %g is outside [1, 4]", b.boost);
+    return invalid_argument(text);
+  }
+  return Status::Ok();
+}
+
+std::vector<float> vertex_density(const Mesh& mesh, const std::vector<float>& importance, DensityMode mode,
+                                  const AttentionBoost& boost) {
   if (mode == DensityMode::kUniform || mode == DensityMode::kPaper) return std::vector<float>(mesh.vertex_count(), 1.0f);
-  return vertex_density(mean_curvature(mesh), importance, mode);
+  return vertex_density(mean_curvature(mesh), importance, mode, boost);
 }
 
 std::vector<float> vertex_density(const std::vector<double>& h, const std::vector<float>& importance,
-                                  DensityMode mode) {
+                                  DensityMode mode, const AttentionBoost& boost) {
   const size_t nv = h.size();
   std::vector<float> d(nv, 1.0f);
   if (mode == DensityMode::kUniform || mode == DensityMode::kPaper) return d;
@@ -268,11 +283,27 @@ std::vector<float> vertex_density(const std::vector<double>& h, const std::vecto
       const double ratio = h[v] / ref;  // NaN only for inf / inf (a degenerate input): the strongest
       d[v] = float(std::isnan(ratio) ? 3.0 : std::clamp(std::sqrt(ratio), 0.3, 3.0));
     }
-  if (mode == DensityMode::kPerception && importance.size() == nv) {
-    std::vector<double> imp(importance.begin(), importance.end());
-    const double mid = median_of(imp);
-    if (mid > 0)
-      for (size_t v = 0; v < nv; ++v) d[v] *= float(std::clamp(std::sqrt(double(importance[v]) / mid), 0.5, 2.0));
+  if (mode == DensityMode::kPerception && importance.size() == nv && nv > 0) {
+    // Ranks by importance (non-finite values lowest, then by index: one
+    // order on every machine); a run of equal values shares its mean rank.
+    auto key = [&](uint32_t v) { return std::isfinite(importance[v]) ? importance[v] : -INFINITY; };
+    std::vector<uint32_t> order(nv);
+    std::iota(order.begin(), order.end(), 0u);
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+      return key(a) != key(b) ? key(a) < key(b) : a < b;
+    });
+    const double last = double(std::max<size_t>(nv - 1, 1));
+    for (size_t i = 0; i < nv;) {
+      size_t j = i + 1;
+      while (j < nv && key(order[j]) == key(order[i])) ++j;
+      const double q = 0.5 * double(i + j - 1) / last;
+      const double above = q - (1.0 - boost.top);
+      if (above > 0) {
+        const float f = float(std::pow(boost.boost, std::min(above / boost.top, 1.0)));
+        for (size_t k = i; k < j; ++k) d[order[k]] *= f;
+      }
+      i = j;
+    }
   }
   return d;
 }
