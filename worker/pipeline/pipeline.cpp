@@ -876,20 +876,20 @@ Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const Pipeli
     }
     if (!failed.ok()) stop.store(true);
   };
-  // Levels start in order while their surfaces fit in what one at a time
-  // holds: a level's and the next one's refinement made ahead, so the two
-  // largest levels' estimates (the input's vertices plus the elements per
-  // vertex times the count) together. A level that ends makes room for the
-  // next ones. Each level is isolated: a thread waiting inside one level's
+  // Levels start in order while their surfaces' estimates (the input's
+  // vertices plus the elements per vertex times the count) fit in twice the
+  // largest level's: one at a time holds a level's surface and the next
+  // one's refinement made ahead, up to two such surfaces, so side by side
+  // holds no more than that bound (sixteen levels of one size run two at a
+  // time; a chain whose largest level dominates runs whole). A level that
+  // ends makes room for the next ones. Each level is isolated: a thread waiting inside one level's
   // parallel loop takes work of that level only, never a whole other level
   // (which would hold the first one up, or run a callback under the lock it
   // waits on).
   std::vector<double> size(counts.size());
   for (size_t i = 0; i < counts.size(); ++i)
     size[i] = double(front.input.vertex_count()) + options.cvt_elements_per_vertex * double(counts[i]);
-  std::vector<double> largest = size;
-  std::sort(largest.begin(), largest.end(), std::greater<double>());
-  const double budget = largest[0] + (largest.size() > 1 ? largest[1] : 0.0);
+  const double budget = 2 * *std::max_element(size.begin(), size.end());
   std::mutex admit;
   size_t started = 0;
   double running = 0;
