@@ -210,6 +210,43 @@ TEST(LodChain, VisualTargetFindsTheFewestVerticesThatKeepTheBound) {
   EXPECT_LE(passing * 4, below) << table;
 }
 
+// A visual target's tries made ahead (beside the try the search runs) leave
+// the outcome as it is: the same count, score, tries and mesh bits, and the
+// same stage events in the same order, as without.
+TEST(LodChain, VisualTargetTriesMadeAheadGiveTheSameOutcome) {
+  const Mesh mesh = bumpy_sphere();
+  LevelTarget visual;
+  visual.min_ssim = 0.95;
+  auto run = [&](int ahead, std::vector<std::string>* events) {
+    PipelineOptions o = small_views();
+    o.visual_target_ahead = ahead;
+    o.on_stage = [events](const StageTiming& t) { events->push_back(t.name + " " + std::to_string(t.level) + " " + t.note); };
+    const std::vector<PipelineResult> found = run_levels(mesh, o, {visual});
+    EXPECT_EQ(found.size(), 1u);
+    return found.empty() ? PipelineResult() : found[0];
+  };
+  std::vector<std::string> without_events, with_events;
+  const PipelineResult without = run(0, &without_events);
+  const PipelineResult with = run(1, &with_events);
+  EXPECT_EQ(with.target, without.target);
+  EXPECT_EQ(with.search.tries, without.search.tries);
+  EXPECT_EQ(with.search.ssim, without.search.ssim);
+  EXPECT_EQ(with.mesh.positions, without.mesh.positions);
+  EXPECT_EQ(with.mesh.indices, without.mesh.indices);
+  EXPECT_EQ(with.saliency, without.saliency);
+  // Stage names, levels and notes (their times differ), in order; the last,
+  // the search's summary, says how many tries were made ahead.
+  ASSERT_FALSE(with_events.empty());
+  ASSERT_EQ(with_events.size(), without_events.size());
+  EXPECT_EQ(std::vector<std::string>(with_events.begin(), with_events.end() - 1),
+            std::vector<std::string>(without_events.begin(), without_events.end() - 1));
+  EXPECT_EQ(without.search.made_ahead, 0);
+  EXPECT_GE(with.search.made_ahead, 1);
+  EXPECT_GE(with.search.taken, 1) << with_events.back();  // on this sphere the search takes one
+  EXPECT_LE(with.search.taken, with.search.made_ahead);
+  EXPECT_NE(with_events.back().find("made ahead"), std::string::npos) << with_events.back();
+}
+
 // Levels side by side (the default for count levels) give the bits one at a
 // time gives, are delivered in order, and the callbacks never overlap (each
 // sleeps a little, so an overlap would be caught); a level callback's error

@@ -11,10 +11,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <deque>
 #include <filesystem>
 #include <functional>
 #include <future>
+#include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -759,6 +762,15 @@ PipelineResult level_result(const FrontHalf& front, int level, uint32_t target) 
 // each judged by SSIM against the input from the job's own views (count and
 // resolution); the level is the smallest count that reached the bound (or the
 // largest tried, when none did, which its note says).
+// A back half made ahead for a visual target's search (run_visual_target).
+struct AheadTry {
+  std::atomic<bool> cancel{false};
+  std::future<void> done;
+  Status status;
+  PipelineResult attempt;
+  std::vector<StageTiming> held;  // its stage events, sent when the search takes it
+};
+
 StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptions& options, int level,
                                            const LevelTarget& target) {
   const double min_ssim = target.min_ssim;
@@ -772,19 +784,101 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   search.lowest = kMinTargetVertices;
   search.highest = uint32_t(std::clamp<size_t>(front.input.vertex_count(), kMinTargetVertices,
                                                std::min(kMaxTargetVertices, options.max_level_vertices)));
+
+  // Tries made ahead (PipelineOptions::visual_target_ahead): while the try at
+  // n runs, the one the search makes next when n passes (the largest count
+  // that closes the bracket if it fails, n / (1 + tolerance) rounded up; on
+  // measured curves the search's next try after a pass in three of four)
+  // runs beside it on its own thread, its parallel loops on the cores the
+  // try at n leaves idle. Every back half is deterministic, so the search
+  // sees the same scores and asks for the same counts: the outcome is the
+  // same either way. A try made ahead that the bracket has passed is
+  // cancelled at its next stage. The callbacks are called under one lock.
+  const bool ahead_on = options.density != DensityMode::kPaper &&
+                        (options.visual_target_ahead > 0 ||
+                         (options.visual_target_ahead < 0 && tbb::this_task_arena::max_concurrency() >= 8));
+  std::mutex callbacks;
+  PipelineOptions live = options;
+  if (ahead_on) {
+    live.keep_going = [&]() {
+      std::lock_guard<std::mutex> lock(callbacks);
+      return !options.keep_going || options.keep_going();
+    };
+    if (options.on_stage)
+      live.on_stage = [&](const StageTiming& t) {
+        std::lock_guard<std::mutex> lock(callbacks);
+        options.on_stage(t);
+      };
+    if (options.on_stage_begin)
+      live.on_stage_begin = [&](const char* name) {
+        std::lock_guard<std::mutex> lock(callbacks);
+        options.on_stage_begin(name);
+      };
+  }
+  std::map<uint32_t, std::unique_ptr<AheadTry>> ahead;
+  // However the search ends, the tries still made ahead stop and are waited for.
+  struct Drain {
+    std::map<uint32_t, std::unique_ptr<AheadTry>>& tries;
+    ~Drain() {
+      for (auto& entry : tries) entry.second->cancel = true;
+      for (auto& entry : tries)
+        if (entry.second->done.valid()) entry.second->done.wait();
+    }
+  } drain{ahead};
+  uint32_t failed = 0, passed = 0;  // the bracket, as the scores so far give it
+  int made_ahead = 0, taken = 0;
+  auto make_ahead = [&](uint32_t count) {
+    auto made = std::make_unique<AheadTry>();
+    AheadTry* a = made.get();
+    PipelineOptions o = options;
+    o.target_vertices = count;
+    o.on_stage = [a](const StageTiming& t) { a->held.push_back(t); };
+    o.on_stage_begin = nullptr;
+    o.keep_going = [&, a]() {
+      if (a->cancel.load()) return false;
+      std::lock_guard<std::mutex> lock(callbacks);
+      return !options.keep_going || options.keep_going();
+    };
+    ++made_ahead;
+    a->attempt = level_result(front, level, count);
+    a->done = std::async(std::launch::async, [&front, o, a, level] {
+      a->status = run_back_half(front, o, level, &a->attempt);
+    });
+    ahead[count] = std::move(made);
+  };
+
   std::optional<PipelineResult> best;  // the smallest passing count's, else the largest count's
   bool best_passed = false;
   auto score = [&](uint32_t count) -> StatusOr<double> {
-    PipelineOptions o = options;
-    o.target_vertices = count;
-    PipelineResult attempt = level_result(front, level, count);
-    VPR_RETURN_IF_ERROR(run_back_half(front, o, level, &attempt));
+    std::unique_ptr<AheadTry> made;
+    if (auto it = ahead.find(count); it != ahead.end()) {
+      made = std::move(it->second);
+      ahead.erase(it);
+    }
+    const uint32_t next_if_passes = uint32_t(std::ceil(double(count) / (1.0 + search.tolerance)));
+    if (ahead_on && next_if_passes < count && next_if_passes > failed && next_if_passes >= search.lowest &&
+        !ahead.count(next_if_passes))
+      make_ahead(next_if_passes);
+    PipelineResult attempt;
+    if (made) {
+      ++taken;
+      made->done.wait();
+      VPR_RETURN_IF_ERROR(made->status);
+      attempt = std::move(made->attempt);
+      for (const StageTiming& t : made->held)
+        if (live.on_stage) live.on_stage(t);
+    } else {
+      PipelineOptions o = live;
+      o.target_vertices = count;
+      attempt = level_result(front, level, count);
+      VPR_RETURN_IF_ERROR(run_back_half(front, o, level, &attempt));
+    }
     const auto start = Clock::now();
     VPR_ASSIGN_OR_RETURN(const VisualSimilarity similarity, reference.compare(attempt.mesh));
     char note[96];
     std::snprintf(note, sizeof note, "%u vertices: SSIM %.4f (bound %.4f)", count, similarity.ssim_mean, min_ssim);
     attempt.stages.push_back({"visual_target", ms_since(start), "cpu", note, level});
-    if (options.on_stage) options.on_stage(attempt.stages.back());
+    if (live.on_stage) live.on_stage(attempt.stages.back());
     const bool passes = similarity.ssim_mean >= min_ssim;
     const bool better = !best || (passes && (!best_passed || count < best->target)) ||
                         (!passes && !best_passed && count > best->target);
@@ -793,15 +887,24 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
       best = std::move(attempt);
       best_passed = passes;
     }
+    if (passes) passed = passed == 0 ? count : std::min(passed, count);
+    else failed = std::max(failed, count);
+    for (auto& entry : ahead)  // outside the bracket: the search cannot ask for it
+      if (entry.first <= failed || (passed > 0 && entry.first >= passed)) entry.second->cancel = true;
     return similarity.ssim_mean;
   };
   VPR_ASSIGN_OR_RETURN(const VisualTargetOutcome outcome, search_visual_target(search, score));
   PipelineResult result = std::move(*best);
   result.search.min_ssim = min_ssim;
   result.search.tries = int(outcome.tries.size());
-  char note[160];
+  result.search.made_ahead = made_ahead;
+  result.search.taken = taken;
+  char note[200];
   std::snprintf(note, sizeof note, "%u vertices chosen after %zu tries: SSIM %.4f %s %.4f", result.target,
                 outcome.tries.size(), result.search.ssim, outcome.reached ? ">=" : "< (not reached)", min_ssim);
+  if (made_ahead > 0)
+    std::snprintf(note + std::strlen(note), sizeof note - std::strlen(note), "; %d of them made ahead (of %d)",
+                  taken, made_ahead);
   result.stages.push_back({"visual_target", 0, "cpu", note, level});
   if (options.on_stage) options.on_stage(result.stages.back());
   return result;

@@ -111,6 +111,10 @@ struct PipelineOptions {
   // The levels are still delivered in order, each with the same bits as
   // alone; false runs them one at a time (`--levels-one-at-a-time`).
   bool levels_side_by_side = true;
+  // A visual target's search makes its likely next try ahead, beside the try
+  // it runs (the same outcome; run_visual_target): -1 where the machine has
+  // 8 or more threads, 0 never, 1 always.
+  int visual_target_ahead = -1;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
   // Called as each stage ends, e.g. to stream progress; the StageTiming is
@@ -143,6 +147,8 @@ struct LevelSearch {
   double min_ssim = 0;  // the bound asked
   double ssim = 0;      // the score the chosen count reached
   int tries = 0;        // back halves run to find it
+  int made_ahead = 0;   // tries made ahead beside the search's (PipelineOptions::visual_target_ahead)
+  int taken = 0;        // of those, the ones the search then asked for
 };
 
 struct PipelineResult {
