@@ -12,7 +12,8 @@
 #    (default 3) judged the same way (the level's own SSIM, from its views),
 #    none of which may reach the bound.
 # Prints markdown tables (docs/benchmarks.md keeps them). Extra flags for
-# every run in FLAGS (e.g. "--threads 2 --device cpu").
+# every run in FLAGS (e.g. "--threads 2" or "--tries-ahead off"); CHAIN=0
+# skips part 1.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${1:-build/release/client/vpremesh}
@@ -36,6 +37,7 @@ wall() {  # seconds a command takes, its output to $work/last.json
   awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.3f", b - a }'
 }
 
+if [ "${CHAIN:-1}" != 0 ]; then
 echo "## Chain against separate jobs: $(basename "$model") -> $levels"
 echo
 echo "| round | chain s | chain, levels one at a time s | separate s | chain / separate | one at a time / separate |"
@@ -54,7 +56,9 @@ for r in $(seq 1 "$rounds"); do
 done
 echo
 
-echo "## Visual target: --min-ssim $min_ssim"
+fi
+
+echo "## Visual target: --min-ssim $min_ssim ${FLAGS:-}"
 echo
 echo "| model | input vertices | chosen | SSIM | reached | tries | search s | one job at the count s | ratio | counts 2-$((2 * sweep))% below: SSIM |"
 echo "|---|---:|---:|---:|---|---:|---:|---:|---:|---|"

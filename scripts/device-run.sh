@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs ON the device machine (NVIDIA H100), from the repository root, with
 # .pack/ (scripts/device-bundle.sh) and .gl/ (the GL loader debs) carried:
-#   scripts/device-run.sh [tests|bench|all|suite|load|queue|isolation|density|targets|field|lod] [bench arguments...]
+#   scripts/device-run.sh [tests|bench|all|suite|load|queue|isolation|density|targets|field|lod|visual] [bench arguments...]
 # Writes under $OUT: device.txt, gpu-tests.log, bench.md; `load` (not part of
 # all) writes load.md: vpremesh-server with --device cuda and 1, 2, 4 workers,
 # driven by `vpremesh bench` closed and open loop (scripts/bench-load.sh);
@@ -64,6 +64,17 @@ if [ "$mode" = lod ]; then
     50000,20000,5000,1000 "${visual[@]}" | tee "$OUT/lod-gpu.md"
   CUDA_VISIBLE_DEVICES= ROUNDS=${ROUNDS:-2} SWEEP=${SWEEP:-0} bash scripts/bench-lod.sh \
     .bundle/bin/vpremesh "$M/igea.ply" 50000,20000,5000,1000 "${visual[@]}" | tee "$OUT/lod-cpu.md"
+fi
+if [ "$mode" = visual ]; then
+  # Issue 20's visual targets with the search's tries made ahead and without
+  # (scripts/bench-lod.sh, CHAIN=0), on the GPU path. Models as arguments.
+  M=.bundle/models
+  visual=("$@")
+  [ ${#visual[@]} -gt 0 ] || visual=("$M/kitten.obj" "$M/fish.obj" "$M/fandisk.obj" "$M/horse.ply")
+  for ahead in on off; do
+    CHAIN=0 SWEEP=${SWEEP:-0} FLAGS="--tries-ahead $ahead" bash scripts/bench-lod.sh .bundle/bin/vpremesh \
+      "$M/igea.ply" 50000 "${visual[@]}" | tee -a "$OUT/visual.md"
+  done
 fi
 if [ "$mode" = load ]; then
   # About 3 minutes: runs that would start after BUDGET_S are skipped and listed.
