@@ -220,7 +220,9 @@ TEST(LodChain, VisualTargetTriesMadeAheadGiveTheSameOutcome) {
   auto run = [&](int ahead, std::vector<std::string>* events) {
     PipelineOptions o = small_views();
     o.visual_target_ahead = ahead;
-    o.on_stage = [events](const StageTiming& t) { events->push_back(t.name + " " + std::to_string(t.level) + " " + t.note); };
+    o.on_stage = [events](const StageTiming& t) {
+      events->push_back(t.name + " " + std::to_string(t.level) + " " + t.note);
+    };
     const std::vector<PipelineResult> found = run_levels(mesh, o, {visual});
     EXPECT_EQ(found.size(), 1u);
     return found.empty() ? PipelineResult() : found[0];

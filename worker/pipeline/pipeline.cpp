@@ -553,7 +553,8 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
     VPR_RETURN_IF_ERROR(stage.run(
         "density", cpu,
         [&]() -> Status {
-          const std::vector<float> d = vertex_density(front.curvature, result.input_importance, options.density, options.attention_boost);
+          const std::vector<float> d =
+              vertex_density(front.curvature, result.input_importance, options.density, options.attention_boost);
           std::vector<float> channels(2 * input.vertex_count());
           for (size_t v = 0; v < input.vertex_count(); ++v) {
             channels[2 * v] = result.input_importance[v];
@@ -841,9 +842,8 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     };
     ++made_ahead;
     a->attempt = level_result(front, level, count);
-    a->done = std::async(std::launch::async, [&front, o, a, level] {
-      a->status = run_back_half(front, o, level, &a->attempt);
-    });
+    a->done = std::async(std::launch::async,
+                         [&front, o, a, level] { a->status = run_back_half(front, o, level, &a->attempt); });
     ahead[count] = std::move(made);
   };
 
@@ -887,8 +887,10 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
       best = std::move(attempt);
       best_passed = passes;
     }
-    if (passes) passed = passed == 0 ? count : std::min(passed, count);
-    else failed = std::max(failed, count);
+    if (passes)
+      passed = passed == 0 ? count : std::min(passed, count);
+    else
+      failed = std::max(failed, count);
     for (auto& entry : ahead)  // outside the bracket: the search cannot ask for it
       if (entry.first <= failed || (passed > 0 && entry.first >= passed)) entry.second->cancel = true;
     return similarity.ssim_mean;
@@ -903,8 +905,8 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   std::snprintf(note, sizeof note, "%u vertices chosen after %zu tries: SSIM %.4f %s %.4f", result.target,
                 outcome.tries.size(), result.search.ssim, outcome.reached ? ">=" : "< (not reached)", min_ssim);
   if (made_ahead > 0)
-    std::snprintf(note + std::strlen(note), sizeof note - std::strlen(note), "; %d of them made ahead (of %d)",
-                  taken, made_ahead);
+    std::snprintf(note + std::strlen(note), sizeof note - std::strlen(note), "; %d of them made ahead (of %d)", taken,
+                  made_ahead);
   result.stages.push_back({"visual_target", 0, "cpu", note, level});
   if (options.on_stage) options.on_stage(result.stages.back());
   return result;
@@ -925,12 +927,10 @@ Status finish_level(const FrontHalf& front, const Mesh& given, const PipelineOpt
 // Count levels of the surface CVT, run side by side (PipelineOptions::
 // levels_side_by_side): each level's back half is one task of a task group,
 // so TBB runs one level's parallel loops on the cores another's serial steps
-// leave idle, as many levels at once as fit the memory one at a time holds. Each stage is deterministic on any thread count, so every level
-// has the bits it has alone. A level is delivered as soon as it and the
-// levels before it are done, and its stage events stream in level order (as
-// one at a time); the callbacks are called under one lock, never two at
-// once; a failure (the first in level order) stops the later levels at their
-// next stage.
+// leave idle, as many levels at once as fit the memory one at a time holds. Each stage is deterministic on any thread
+// count, so every level has the bits it has alone. A level is delivered as soon as it and the levels before it are
+// done, and its stage events stream in level order (as one at a time); the callbacks are called under one lock, never
+// two at once; a failure (the first in level order) stops the later levels at their next stage.
 Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const PipelineOptions& options,
                                const std::vector<uint32_t>& counts, const LevelCallback& on_level) {
   struct Slot {
@@ -955,8 +955,10 @@ Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const Pipeli
   shared.on_stage = [&](const StageTiming& t) {
     std::lock_guard<std::mutex> lock(callbacks);
     if (!options.on_stage) return;
-    if (t.level == int(next)) options.on_stage(t);
-    else if (t.level > int(next) && size_t(t.level) < slots.size()) slots[size_t(t.level)].held.push_back(t);
+    if (t.level == int(next))
+      options.on_stage(t);
+    else if (t.level > int(next) && size_t(t.level) < slots.size())
+      slots[size_t(t.level)].held.push_back(t);
   };
   if (options.on_stage_begin)
     shared.on_stage_begin = [&](const char* name) {
@@ -985,10 +987,10 @@ Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const Pipeli
   // one's refinement made ahead, up to two such surfaces, so side by side
   // holds no more than that bound (sixteen levels of one size run two at a
   // time; a chain whose largest level dominates runs whole). A level that
-  // ends makes room for the next ones. Each level is isolated: a thread waiting inside one level's
-  // parallel loop takes work of that level only, never a whole other level
-  // (which would hold the first one up, or run a callback under the lock it
-  // waits on).
+  // ends makes room for the next ones; after a failure none starts. Each
+  // level is isolated: a thread waiting inside one level's parallel loop
+  // takes work of that level only, never a whole other level (which would
+  // hold the first one up, or run a callback under the lock it waits on).
   std::vector<double> size(counts.size());
   for (size_t i = 0; i < counts.size(); ++i)
     size[i] = double(front.input.vertex_count()) + options.cvt_elements_per_vertex * double(counts[i]);
@@ -998,7 +1000,7 @@ Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const Pipeli
   double running = 0;
   tbb::task_group group;
   std::function<void()> start_more = [&]() {  // with `admit` held
-    while (started < counts.size() && (running == 0 || running + size[started] <= budget)) {
+    while (!stop.load() && started < counts.size() && (running == 0 || running + size[started] <= budget)) {
       const size_t i = started++;
       running += size[i];
       group.run([&, i] {
@@ -1107,7 +1109,8 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
   };
   refine_ahead(0);
   VPR_RETURN_IF_ERROR(run_front_half(options, &front));
-  const bool all_counts = std::all_of(levels.begin(), levels.end(), [](const LevelTarget& l) { return l.min_ssim == 0; });
+  const bool all_counts =
+      std::all_of(levels.begin(), levels.end(), [](const LevelTarget& l) { return l.min_ssim == 0; });
   if (options.levels_side_by_side && levels.size() > 1 && all_counts && options.density != DensityMode::kPaper)
     return run_levels_side_by_side(front, given, options, counts, on_level);
 
