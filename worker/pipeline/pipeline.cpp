@@ -763,6 +763,37 @@ PipelineResult level_result(const FrontHalf& front, int level, uint32_t target) 
 // each judged by SSIM against the input from the job's own views (count and
 // resolution); the level is the smallest count that reached the bound (or the
 // largest tried, when none did, which its note says).
+// The options with their callbacks (keep_going, on_stage, on_stage_begin)
+// called under `lock`, for back halves that run on several threads at once.
+PipelineOptions with_locked_callbacks(const PipelineOptions& options, std::mutex* lock) {
+  PipelineOptions o = options;
+  if (options.keep_going)
+    o.keep_going = [&options, lock]() {
+      std::lock_guard<std::mutex> held(*lock);
+      return options.keep_going();
+    };
+  if (options.on_stage)
+    o.on_stage = [&options, lock](const StageTiming& t) {
+      std::lock_guard<std::mutex> held(*lock);
+      options.on_stage(t);
+    };
+  if (options.on_stage_begin)
+    o.on_stage_begin = [&options, lock](const char* name) {
+      std::lock_guard<std::mutex> held(*lock);
+      options.on_stage_begin(name);
+    };
+  return o;
+}
+
+// One level's back half at `count` vertices: its result, the front half's
+// shared part first (level_result).
+Status back_half_at(FrontHalf& front, const PipelineOptions& options, int level, uint32_t count, PipelineResult* out) {
+  PipelineOptions o = options;
+  o.target_vertices = count;
+  *out = level_result(front, level, count);
+  return run_back_half(front, o, level, out);
+}
+
 // A back half made ahead for a visual target's search (run_visual_target).
 struct AheadTry {
   std::atomic<bool> cancel{false};
@@ -799,23 +830,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
                         (options.visual_target_ahead > 0 ||
                          (options.visual_target_ahead < 0 && tbb::this_task_arena::max_concurrency() >= 8));
   std::mutex callbacks;
-  PipelineOptions live = options;
-  if (ahead_on) {
-    live.keep_going = [&]() {
-      std::lock_guard<std::mutex> lock(callbacks);
-      return !options.keep_going || options.keep_going();
-    };
-    if (options.on_stage)
-      live.on_stage = [&](const StageTiming& t) {
-        std::lock_guard<std::mutex> lock(callbacks);
-        options.on_stage(t);
-      };
-    if (options.on_stage_begin)
-      live.on_stage_begin = [&](const char* name) {
-        std::lock_guard<std::mutex> lock(callbacks);
-        options.on_stage_begin(name);
-      };
-  }
+  const PipelineOptions live = ahead_on ? with_locked_callbacks(options, &callbacks) : options;
   std::map<uint32_t, std::unique_ptr<AheadTry>> ahead;
   // However the search ends, the tries still made ahead stop and are waited for.
   struct Drain {
@@ -831,19 +846,14 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   auto make_ahead = [&](uint32_t count) {
     auto made = std::make_unique<AheadTry>();
     AheadTry* a = made.get();
-    PipelineOptions o = options;
-    o.target_vertices = count;
+    PipelineOptions o = live;
     o.on_stage = [a](const StageTiming& t) { a->held.push_back(t); };
     o.on_stage_begin = nullptr;
-    o.keep_going = [&, a]() {
-      if (a->cancel.load()) return false;
-      std::lock_guard<std::mutex> lock(callbacks);
-      return !options.keep_going || options.keep_going();
-    };
+    o.keep_going = [&live, a]() { return !a->cancel.load() && (!live.keep_going || live.keep_going()); };
     ++made_ahead;
-    a->attempt = level_result(front, level, count);
-    a->done = std::async(std::launch::async,
-                         [&front, o, a, level] { a->status = run_back_half(front, o, level, &a->attempt); });
+    a->done = std::async(std::launch::async, [&front, o, a, level, count] {
+      a->status = back_half_at(front, o, level, count, &a->attempt);
+    });
     ahead[count] = std::move(made);
   };
 
@@ -868,10 +878,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
       for (const StageTiming& t : made->held)
         if (live.on_stage) live.on_stage(t);
     } else {
-      PipelineOptions o = live;
-      o.target_vertices = count;
-      attempt = level_result(front, level, count);
-      VPR_RETURN_IF_ERROR(run_back_half(front, o, level, &attempt));
+      VPR_RETURN_IF_ERROR(back_half_at(front, live, level, count, &attempt));
     }
     const auto start = Clock::now();
     VPR_ASSIGN_OR_RETURN(const VisualSimilarity similarity, reference.compare(attempt.mesh));
@@ -944,12 +951,9 @@ Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const Pipeli
   Status failed;
   std::mutex callbacks;
   std::atomic<bool> stop{false};
-  PipelineOptions shared = options;
-  shared.keep_going = [&]() {
-    if (stop.load()) return false;
-    std::lock_guard<std::mutex> lock(callbacks);
-    return !options.keep_going || options.keep_going();
-  };
+  const PipelineOptions locked = with_locked_callbacks(options, &callbacks);
+  PipelineOptions shared = locked;
+  shared.keep_going = [&]() { return !stop.load() && (!locked.keep_going || locked.keep_going()); };
   // Stage events stream in level order, as one at a time: the first level
   // not yet delivered reports live, a later one's are held until its turn.
   shared.on_stage = [&](const StageTiming& t) {
@@ -960,11 +964,6 @@ Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const Pipeli
     else if (t.level > int(next) && size_t(t.level) < slots.size())
       slots[size_t(t.level)].held.push_back(t);
   };
-  if (options.on_stage_begin)
-    shared.on_stage_begin = [&](const char* name) {
-      std::lock_guard<std::mutex> lock(callbacks);
-      options.on_stage_begin(name);
-    };
   // With `callbacks` held: from `next` on, each level's held events, then
   // the level itself if it is done.
   auto deliver = [&]() {
@@ -1006,10 +1005,7 @@ Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const Pipeli
       group.run([&, i] {
         Slot& slot = slots[i];
         tbb::this_task_arena::isolate([&] {
-          PipelineOptions level_options = shared;
-          level_options.target_vertices = counts[i];
-          slot.result = level_result(front, int(i), counts[i]);
-          slot.status = run_back_half(front, level_options, int(i), &slot.result);
+          slot.status = back_half_at(front, shared, int(i), counts[i], &slot.result);
           if (slot.status.ok()) slot.status = finish_level(front, given, shared, &slot.result);
         });
         {
@@ -1116,14 +1112,11 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
 
   for (size_t i = 0; i < levels.size(); ++i) {
     refine_ahead(i + 1);
-    PipelineOptions level_options = options;
     PipelineResult result;
     if (levels[i].min_ssim > 0) {
       VPR_ASSIGN_OR_RETURN(result, run_visual_target(front, options, int(i), levels[i]));
     } else {
-      result = level_result(front, int(i), counts[i]);
-      level_options.target_vertices = counts[i];
-      VPR_RETURN_IF_ERROR(run_back_half(front, level_options, int(i), &result));
+      VPR_RETURN_IF_ERROR(back_half_at(front, options, int(i), counts[i], &result));
     }
     VPR_RETURN_IF_ERROR(finish_level(front, given, options, &result));
     result.total_ms = ms_since(front.start);
