@@ -18,7 +18,7 @@ namespace vpr::cli {
 namespace {
 
 struct LocalArgs {
-  std::string input, output, field_out, renderer = "auto";
+  std::string input, output, field_out, attention_map, renderer = "auto";
   bool json = false;
   bool no_draco = false;  // .glb/.gltf output with plain accessors
   int threads = 0;
@@ -45,6 +45,12 @@ int run_local(LocalArgs& a) {
   if (!renderer.ok()) return fail(renderer.status());
   o.renderer = *renderer;
   if (Status s = apply_pipeline_flags(a.flags, &o); !s.ok()) return fail(s);
+  if (!a.attention_map.empty()) {
+    auto map = read_saliency(a.attention_map);
+    if (!map.ok()) return fail(map.status());
+    if (map->empty()) return fail(invalid_argument("attention map " + a.attention_map + " has no 'saliency' values"));
+    o.attention_map = std::make_shared<const std::vector<float>>(std::move(*map));
+  }
   auto levels = levels_from_flags(a.flags, o);
   if (!levels.ok()) return fail(levels.status());
   const bool chain = levels->size() > 1;  // one file per level
@@ -120,6 +126,10 @@ Command add_local_command(CLI::App& app) {
   add_pipeline_flags(cmd, o, args->flags);
   cmd->add_option("--renderer", args->renderer, "auto, egl or osmesa")->capture_default_str();
   cmd->add_option("--field-out", args->field_out, "Write the input mesh colored by its saliency field (.ply)");
+  cmd->add_option("--attention-map", args->attention_map,
+                  "Use this map instead of the attention field: a PLY or Draco file with a 'saliency' value per "
+                  "vertex of the input, in its order (for example measured fixation: scripts/gaze-score.py "
+                  "fixation-field)");
   cmd->add_option("--debug-dir", o.debug_dir, "Write per-view snapshots, feature images and points here");
   cmd->add_flag("--json", args->json, "Print a JSON report instead of the table");
   cmd->add_option("--threads", args->threads, "Worker threads (0 = all cores)")->capture_default_str();

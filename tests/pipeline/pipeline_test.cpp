@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <utility>
 
@@ -131,6 +132,63 @@ TEST(Pipeline, EveryDensityModeGivesTheAskedCountAndTheSurfaceModesAFieldWithRan
         double(std::count_if(f.begin(), f.end(), [&](float x) { return x >= top - 1e-6f; })) / double(f.size());
     if (mode != DensityMode::kPaper) EXPECT_LE(at_max, 0.01) << density_mode_name(mode);
   }
+}
+
+// An attention map replaces the field (reported as the field, per given
+// vertex, a dropped unused vertex at the floor) and the perception density
+// spends more vertices where the map is high: a cap of the sphere gets more
+// output vertices when the map marks it than when the map marks the opposite
+// cap. A map of the wrong size, or with a NaN, is refused naming the problem.
+TEST(Pipeline, AnAttentionMapReplacesTheFieldAndDrawsVerticesToWhereItIsHigh) {
+  const Mesh sphere = testing::icosphere(4);
+  // The given mesh: an unused vertex first, so the map's indices differ from
+  // the compacted input's.
+  Mesh given;
+  given.positions = {5.0f, 5.0f, 5.0f};
+  given.positions.insert(given.positions.end(), sphere.positions.begin(), sphere.positions.end());
+  for (uint32_t i : sphere.indices) given.indices.push_back(i + 1);
+  const size_t n = given.vertex_count();
+  auto cap_map = [&](float side) {
+    auto map = std::make_shared<std::vector<float>>(n, 0.0f);
+    (*map)[0] = 100.0f;  // dropped with its vertex
+    for (size_t v = 1; v < n; ++v)
+      if (side * given.positions[3 * v] > 0.6f) (*map)[v] = 1.0f + given.positions[3 * v + 1];
+    return map;
+  };
+  auto in_cap = [](const Mesh& m, float side) {
+    size_t k = 0;
+    for (size_t v = 0; v < m.vertex_count(); ++v) k += side * m.positions[3 * v] > 0.6f;
+    return k;
+  };
+  PipelineOptions o = default_options(600);
+  o.density = DensityMode::kPerception;
+  o.attention_boost = {0.2, 2.0};
+  o.attention_map = cap_map(1.0f);
+  auto plus = run_pipeline(given, o);
+  ASSERT_TRUE(plus.ok()) << plus.status().to_string();
+  ASSERT_EQ(plus->input_importance.size(), n);
+  EXPECT_EQ(plus->input_importance[0], o.field.min_importance);
+  for (size_t v = 1; v < n; ++v) ASSERT_EQ(plus->input_importance[v], (*o.attention_map)[v]) << v;
+  o.attention_map = cap_map(-1.0f);
+  auto minus = run_pipeline(given, o);
+  ASSERT_TRUE(minus.ok()) << minus.status().to_string();
+  EXPECT_GT(double(in_cap(plus->mesh, 1.0f)), 1.3 * double(in_cap(minus->mesh, 1.0f)));
+  EXPECT_GT(double(in_cap(minus->mesh, -1.0f)), 1.3 * double(in_cap(plus->mesh, -1.0f)));
+
+  o.attention_map = std::make_shared<std::vector<float>>(n - 1, 0.0f);
+  auto wrong = run_pipeline(given, o);
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_EQ(wrong.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(wrong.status().message().find(std::to_string(n - 1) + " values for a mesh of " + std::to_string(n)),
+            std::string::npos)
+      << wrong.status().message();
+  auto nan = std::make_shared<std::vector<float>>(n, 0.0f);
+  (*nan)[7] = std::nanf("");
+  o.attention_map = nan;
+  wrong = run_pipeline(given, o);
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.status().message().find("value 7 is not a finite number"), std::string::npos)
+      << wrong.status().message();
 }
 
 TEST(Pipeline, SameSeedGivesIdenticalOutputAtOneAndTwoThreads) {

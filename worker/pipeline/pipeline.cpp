@@ -342,6 +342,24 @@ Status prepare_input(const Mesh& given, const PipelineOptions& options, FrontHal
   return Status::Ok();
 }
 
+// PipelineOptions::attention_map: one finite value per given vertex.
+Status check_attention_map(const std::vector<float>& map, size_t given_vertices) {
+  if (map.size() != given_vertices)
+    return invalid_argument("attention map has " + std::to_string(map.size()) + " values for a mesh of " +
+                            std::to_string(given_vertices) + " vertices");
+  for (size_t v = 0; v < map.size(); ++v)
+    if (!std::isfinite(map[v]))
+      return invalid_argument("attention map value " + std::to_string(v) + " is not a finite number");
+  return Status::Ok();
+}
+
+// The given attention map in place of the field, on the compacted input's vertices.
+void use_attention_map(const std::vector<float>& map, const FrontHalf& front, PipelineResult* result) {
+  const size_t n = front.input.vertex_count();
+  result->input_importance.resize(n);
+  for (size_t v = 0; v < n; ++v) result->input_importance[v] = map[front.used.empty() ? v : front.used[v]];
+}
+
 // Stages 1-4: views, snapshots, image saliency, unprojection, and (except
 // for the paper's density, whose field depends on the target) the field.
 Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
@@ -350,6 +368,7 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   const ExecContext ctx;  // stages without a GPU twin
   const std::string cpu = "cpu";
   front->start = Clock::now();
+  if (options.attention_map) VPR_RETURN_IF_ERROR(check_attention_map(*options.attention_map, front->given_vertices));
   VPR_ASSIGN_OR_RETURN(front->device, JobDevice::select(options.device, options.cuda_device, options.device_budget));
   const JobDevice& device = *front->device;
   result.device = device.description();
@@ -493,7 +512,7 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   // Stage 4: the attention field (attention_field.h) on the input vertices;
   // the surface CVT's density also reuses the curvature computed here.
   std::string note;
-  return stage.run_twin(
+  VPR_RETURN_IF_ERROR(stage.run_twin(
       "saliency_field", device,
       [&](const ExecContext& c) -> Status {
         std::vector<double>& curvature = front->curvature;
@@ -519,7 +538,9 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
                                             points, input.vertex_count(), options.attention, &result.input_importance,
                                             c, prepared ? &ahead.prep : nullptr);
       },
-      "", &note);
+      "", &note));
+  if (options.attention_map) use_attention_map(*options.attention_map, *front, &result);
+  return Status::Ok();
 }
 
 // Stages 5-7 for one level (options.target_vertices), from the front half.

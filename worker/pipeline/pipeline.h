@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -79,6 +80,12 @@ struct PipelineOptions {
   // kPerception's attention term: the field's top share raised, up to a
   // factor at the top (surface_density.h; --attention-top, --attention-boost).
   AttentionBoost attention_boost;
+  // An attention map to use instead of the attention field: one value per
+  // vertex of the given mesh, in its order (higher: more looked at; only the
+  // order counts for kPerception's term). For measuring what a predictor
+  // could buy (measured fixation as an oracle, docs/perception.md) and for
+  // callers with their own maps. Null: the attention field.
+  std::shared_ptr<const std::vector<float>> attention_map;
   CvtOptions cvt;                   // its seed is sampling.seed; its anisotropy is set from `anisotropy`
   // The CVT's anisotropy as a share of the bounding-box diagonal (each
   // element at (x, a n) in R^6, surface_cvt.h); 0: isotropic. 0.04 by
