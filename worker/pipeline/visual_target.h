@@ -46,6 +46,39 @@ struct VisualTargetOutcome {
   std::vector<VisualTry> tries;  // in the order run
 };
 
+// The search, one try at a time: next() is the count to try (0: the search
+// is over), record() its score. A copy given a score the try has not yet
+// had says what the search would ask next after it: the tries made ahead
+// (pipeline.cpp) ask for both outcomes of the try that runs.
+class VisualSearch {
+ public:
+  // INVALID_ARGUMENT for a bound outside (0, 1) or an empty range.
+  static StatusOr<VisualSearch> start(const VisualTargetOptions& options);
+  uint32_t next() const { return done_ ? 0 : next_; }
+  // The score of the try at next() (another count counts as that one's).
+  void record(uint32_t count, double ssim);
+  VisualTargetOutcome outcome() const;
+  const VisualTargetOptions& options() const { return o_; }
+
+ private:
+  explicit VisualSearch(const VisualTargetOptions& options);
+  bool bracket_closed() const;
+
+  VisualTargetOptions o_;
+  std::vector<VisualTry> tries_;
+  // The bracket: the largest count that failed, the smallest that passed.
+  uint32_t failed_ = 0, passed_ = 0;
+  double passed_ssim_ = 0;
+  uint32_t next_ = 0;
+  bool done_ = false;
+  int stalled_ = 0;  // tries since the bracket last halved in log width
+  // Steps of less than 2 up from a failure near the bound, and how many of
+  // them failed: each failure doubles the next such step.
+  bool short_step_ = false;
+  int short_steps_failed_ = 0;
+  double width_ = 0;
+};
+
 // score(n): runs the back half at n vertices and returns its mean SSIM (the
 // caller keeps the results it may hand back). Errors from score end the search.
 StatusOr<VisualTargetOutcome> search_visual_target(const VisualTargetOptions& options,
