@@ -832,37 +832,46 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   judge.resolution = target.screen_px > 0 ? int(target.screen_px) : options.views.resolution;
   judge.line_drawings = false;  // the bound is on the shaded SSIM alone
   VPR_ASSIGN_OR_RETURN(const VisualReference reference, VisualReference::create(front.input, front.renderer, judge));
-  VisualTargetOptions search;
-  search.min_ssim = min_ssim;
-  search.lowest = kMinTargetVertices;
-  search.highest = uint32_t(std::clamp<size_t>(front.input.vertex_count(), kMinTargetVertices,
+  VisualTargetOptions search_options;
+  search_options.min_ssim = min_ssim;
+  search_options.lowest = kMinTargetVertices;
+  search_options.highest = uint32_t(std::clamp<size_t>(front.input.vertex_count(), kMinTargetVertices,
                                                std::min(kMaxTargetVertices, options.max_level_vertices)));
 
   // Tries made ahead (PipelineOptions::visual_target_ahead): while the try at
-  // n runs, the one the search makes next when n passes (the largest count
-  // that closes the bracket if it fails, n / (1 + tolerance) rounded up; on
-  // measured curves the search's next try after a pass in three of four)
-  // runs beside it on its own thread, its parallel loops on the cores the
-  // try at n leaves idle. Every back half is deterministic, so the search
-  // sees the same scores and asks for the same counts: the outcome is the
-  // same either way. A try made ahead that the bracket has passed is
-  // cancelled at its next stage. The callbacks are called under one lock.
+  // n runs, the tries the search makes next when n passes and when it fails
+  // (asked of copies of the search given a score just above and just below
+  // the bound; a failure's next try depends on its score, and near the bound,
+  // where most tries are, the search steps by the counts alone) run beside
+  // it, each on its own thread, their parallel loops on the cores the try at
+  // n leaves idle. Every back half is deterministic, so the search sees the
+  // same scores and asks for the same counts: the outcome is the same either
+  // way. Once n's score is in, the tries made ahead that the search does not
+  // ask for next are cancelled at their next stage. The callbacks are called
+  // under one lock. (vpremesh-visual-replay --ahead replays this on measured
+  // curves: docs/benchmarks.md.)
   const bool ahead_on = options.density != DensityMode::kPaper &&
                         (options.visual_target_ahead > 0 ||
                          (options.visual_target_ahead < 0 && tbb::this_task_arena::max_concurrency() >= 8));
+  // Near the bound a failing score lies about this far below it (SSIM moves
+  // by about 0.001 between counts 1% apart there).
+  constexpr double kFailingMargin = 0.0005;
   std::mutex callbacks;
   const PipelineOptions live = ahead_on ? with_locked_callbacks(options, &callbacks) : options;
   std::map<uint32_t, std::unique_ptr<AheadTry>> ahead;
+  std::vector<std::unique_ptr<AheadTry>> stopped;  // cancelled, perhaps still running
   // However the search ends, the tries still made ahead stop and are waited for.
   struct Drain {
     std::map<uint32_t, std::unique_ptr<AheadTry>>& tries;
+    std::vector<std::unique_ptr<AheadTry>>& stopped;
     ~Drain() {
       for (auto& entry : tries) entry.second->cancel = true;
       for (auto& entry : tries)
         if (entry.second->done.valid()) entry.second->done.wait();
+      for (auto& a : stopped)
+        if (a->done.valid()) a->done.wait();
     }
-  } drain{ahead};
-  uint32_t failed = 0, passed = 0;  // the bracket, as the scores so far give it
+  } drain{ahead, stopped};
   int made_ahead = 0, taken = 0;
   auto make_ahead = [&](uint32_t count) {
     auto made = std::make_unique<AheadTry>();
@@ -878,18 +887,23 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     ahead[count] = std::move(made);
   };
 
+  VPR_ASSIGN_OR_RETURN(VisualSearch search, VisualSearch::start(search_options));
   std::optional<PipelineResult> best;  // the smallest passing count's, else the largest count's
   bool best_passed = false;
-  auto score = [&](uint32_t count) -> StatusOr<double> {
+  for (uint32_t count = search.next(); count != 0; count = search.next()) {
     std::unique_ptr<AheadTry> made;
     if (auto it = ahead.find(count); it != ahead.end()) {
       made = std::move(it->second);
       ahead.erase(it);
     }
-    const uint32_t next_if_passes = uint32_t(std::ceil(double(count) / (1.0 + search.tolerance)));
-    if (ahead_on && next_if_passes < count && next_if_passes > failed && next_if_passes >= search.lowest &&
-        !ahead.count(next_if_passes))
-      make_ahead(next_if_passes);
+    if (ahead_on) {
+      for (const double s : {std::min(min_ssim + kFailingMargin, 1.0), min_ssim - kFailingMargin}) {
+        VisualSearch after = search;
+        after.record(count, s);
+        const uint32_t next = after.next();
+        if (next != 0 && next != count && !ahead.count(next)) make_ahead(next);
+      }
+    }
     PipelineResult attempt;
     if (made) {
       ++taken;
@@ -915,15 +929,18 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
       best = std::move(attempt);
       best_passed = passes;
     }
-    if (passes)
-      passed = passed == 0 ? count : std::min(passed, count);
-    else
-      failed = std::max(failed, count);
-    for (auto& entry : ahead)  // outside the bracket: the search cannot ask for it
-      if (entry.first <= failed || (passed > 0 && entry.first >= passed)) entry.second->cancel = true;
-    return similarity.ssim_mean;
-  };
-  VPR_ASSIGN_OR_RETURN(const VisualTargetOutcome outcome, search_visual_target(search, score));
+    search.record(count, similarity.ssim_mean);
+    for (auto it = ahead.begin(); it != ahead.end();) {  // not the search's next: stopped
+      if (it->first == search.next()) {
+        ++it;
+        continue;
+      }
+      it->second->cancel = true;
+      stopped.push_back(std::move(it->second));
+      it = ahead.erase(it);
+    }
+  }
+  const VisualTargetOutcome outcome = search.outcome();
   PipelineResult result = std::move(*best);
   result.search.min_ssim = min_ssim;
   result.search.tries = int(outcome.tries.size());
