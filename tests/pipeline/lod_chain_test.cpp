@@ -251,6 +251,13 @@ TEST(LodChain, VisualTargetTriesMadeAheadGiveTheSameOutcome) {
   EXPECT_GE(with.search.taken, 1) << with_events.back();  // on this sphere the search takes one
   EXPECT_LE(with.search.taken, with.search.made_ahead);
   EXPECT_NE(with_events.back().find("made ahead"), std::string::npos) << with_events.back();
+  // Only the try after a pass made ahead: the same outcome, at most one per try.
+  std::vector<std::string> pass_events;
+  const PipelineResult pass = run(2, &pass_events);
+  EXPECT_EQ(pass.target, without.target);
+  EXPECT_EQ(pass.mesh.positions, without.mesh.positions);
+  EXPECT_GE(pass.search.made_ahead, 1);
+  EXPECT_LE(pass.search.made_ahead, pass.search.tries);
 }
 
 // Levels side by side (the default for count levels) give the bits one at a

@@ -898,6 +898,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     }
     if (ahead_on) {
       for (const double s : {std::min(min_ssim + kFailingMargin, 1.0), min_ssim - kFailingMargin}) {
+        if (s < min_ssim && options.visual_target_ahead == 2) continue;  // the pass's try only
         VisualSearch after = search;
         after.record(count, s);
         const uint32_t next = after.next();

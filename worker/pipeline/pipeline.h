@@ -120,7 +120,8 @@ struct PipelineOptions {
   bool levels_side_by_side = true;
   // A visual target's search makes its next tries after either outcome of
   // the try it runs ahead, beside it (the same outcome; run_visual_target):
-  // -1 where the machine has 8 or more threads, 0 never, 1 always.
+  // -1 where the machine has 8 or more threads, 0 never, 1 always, 2 only
+  // the try after a pass (less work beside the search, for measuring).
   int visual_target_ahead = -1;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
