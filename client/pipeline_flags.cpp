@@ -13,10 +13,10 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
                   "Levels of detail instead of -n: counts or fractions of the input's vertices, e.g. 20000,5000,0.01; "
                   "the views and the field are computed once for all");
   cmd->add_option("--tries-ahead", values.tries_ahead,
-                  "A visual target's search makes its next tries after either outcome beside the one it runs: "
-                  "auto (with 8 or more threads), on, pass (only the try after a pass) or off (the same outcome "
-                  "every way)")
-      ->check(CLI::IsMember({"auto", "on", "pass", "off"}))
+                  "A visual target's search makes its next try after a pass beside the one it runs: auto (with 8 "
+                  "or more threads), on, both (the next tries after a pass and after a failure) or off (the same "
+                  "outcome every way)")
+      ->check(CLI::IsMember({"auto", "on", "both", "off"}))
       ->capture_default_str();
   cmd->add_flag("--levels-one-at-a-time", values.levels_one_at_a_time,
                 "Run a --lod chain's levels one after another instead of side by side (the same meshes; for "
@@ -102,7 +102,7 @@ Status apply_pipeline_flags(const PipelineFlagValues& values, PipelineOptions* o
   o->attention.image_cue = values.image_cue;
   o->levels_side_by_side = !values.levels_one_at_a_time;
   o->visual_target_ahead = values.tries_ahead == "on"     ? 1
-                           : values.tries_ahead == "pass" ? 2
+                           : values.tries_ahead == "both" ? 2
                            : values.tries_ahead == "off"  ? 0
                                                           : -1;
   if (!values.rotation.empty()) {

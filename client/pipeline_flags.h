@@ -20,7 +20,7 @@ struct PipelineFlagValues {
   // Levels of detail (issue 20): --lod COUNT|FRACTION,... and --min-ssim S.
   std::string lod;
   bool levels_one_at_a_time = false;  // --levels-one-at-a-time
-  std::string tries_ahead = "auto";    // --tries-ahead auto|on|pass|off
+  std::string tries_ahead = "auto";    // --tries-ahead auto|on|both|off
   double min_ssim = 0;
   uint32_t screen_px = 0;
 };

@@ -66,14 +66,14 @@ if [ "$mode" = lod ]; then
     .bundle/bin/vpremesh "$M/igea.ply" 50000,20000,5000,1000 "${visual[@]}" | tee "$OUT/lod-cpu.md"
 fi
 if [ "$mode" = visual ]; then
-  # Issue 20's visual targets with the search's tries made ahead for both
-  # outcomes, for a pass only, and without (scripts/bench-lod.sh, CHAIN=0;
+  # Issue 20's visual targets with the search's tries made ahead after a
+  # pass, after either outcome, and without (scripts/bench-lod.sh, CHAIN=0;
   # AHEADS picks), on the GPU path, ROUNDS times. Models as arguments.
   M=.bundle/models
   visual=("$@")
   [ ${#visual[@]} -gt 0 ] || visual=("$M/kitten.obj" "$M/fish.obj" "$M/fandisk.obj" "$M/horse.ply")
   for round in $(seq "${ROUNDS:-1}"); do
-    for ahead in ${AHEADS:-on pass off}; do
+    for ahead in ${AHEADS:-on both off}; do
       echo "round $round, --tries-ahead $ahead" | tee -a "$OUT/visual.md"
       CHAIN=0 ROUNDS=1 SWEEP=${SWEEP:-0} FLAGS="--tries-ahead $ahead" bash scripts/bench-lod.sh \
         .bundle/bin/vpremesh "$M/igea.ply" 50000 "${visual[@]}" | tee -a "$OUT/visual.md"

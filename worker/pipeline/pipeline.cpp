@@ -839,17 +839,18 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
                                                std::min(kMaxTargetVertices, options.max_level_vertices)));
 
   // Tries made ahead (PipelineOptions::visual_target_ahead): while the try at
-  // n runs, the tries the search makes next when n passes and when it fails
-  // (asked of copies of the search given a score just above and just below
-  // the bound; a failure's next try depends on its score, and near the bound,
-  // where most tries are, the search steps by the counts alone) run beside
-  // it, each on its own thread, their parallel loops on the cores the try at
-  // n leaves idle. Every back half is deterministic, so the search sees the
-  // same scores and asks for the same counts: the outcome is the same either
-  // way. Once n's score is in, the tries made ahead that the search does not
-  // ask for next are cancelled at their next stage. The callbacks are called
-  // under one lock. (vpremesh-visual-replay --ahead replays this on measured
-  // curves: docs/benchmarks.md.)
+  // n runs, the try the search makes next when n passes (asked of a copy of
+  // the search given a score just above the bound: after a pass the next
+  // count does not depend on the score) runs beside it on its own thread,
+  // its parallel loops on the cores the try at n leaves idle; with 2, also
+  // the next after a failure (a copy given a score just below the bound:
+  // there the next count depends on the score, and on the H100 machine the
+  // guess was right for 3 of horse's 14 and the search no faster). Every
+  // back half is deterministic, so the search sees the same scores and asks
+  // for the same counts: the outcome is the same either way. Once n's score
+  // is in, the tries made ahead that the search does not ask for next are
+  // cancelled at their next stage. The callbacks are called under one lock.
+  // (vpremesh-visual-replay --ahead replays this on measured curves.)
   const bool ahead_on = options.density != DensityMode::kPaper &&
                         (options.visual_target_ahead > 0 ||
                          (options.visual_target_ahead < 0 && tbb::this_task_arena::max_concurrency() >= 8));
@@ -898,7 +899,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     }
     if (ahead_on) {
       for (const double s : {std::min(min_ssim + kFailingMargin, 1.0), min_ssim - kFailingMargin}) {
-        if (s < min_ssim && options.visual_target_ahead == 2) continue;  // the pass's try only
+        if (s < min_ssim && options.visual_target_ahead != 2) continue;  // the pass's try only
         VisualSearch after = search;
         after.record(count, s);
         const uint32_t next = after.next();

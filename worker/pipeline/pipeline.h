@@ -118,10 +118,11 @@ struct PipelineOptions {
   // The levels are still delivered in order, each with the same bits as
   // alone; false runs them one at a time (`--levels-one-at-a-time`).
   bool levels_side_by_side = true;
-  // A visual target's search makes its next tries after either outcome of
-  // the try it runs ahead, beside it (the same outcome; run_visual_target):
-  // -1 where the machine has 8 or more threads, 0 never, 1 always, 2 only
-  // the try after a pass (less work beside the search, for measuring).
+  // A visual target's search makes its next try after a pass ahead, beside
+  // the try it runs (the same outcome; run_visual_target): -1 where the
+  // machine has 8 or more threads, 0 never, 1 always; 2 also the next try
+  // after a failure (measured on the H100 machine: no faster than 1, more
+  // work; docs/benchmarks.md).
   int visual_target_ahead = -1;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
