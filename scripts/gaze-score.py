@@ -7,6 +7,11 @@ keeps there (docs/perception.md; the measures of ../shared/gaze/README.md).
   gaze-score.py share FIELD.ply [...]             share of vertices at the field's maximum
   gaze-score.py error GAZE.ply REMESH.ply         fixation-weighted and plain error
   gaze-score.py fixation-field GAZE.ply OUT.ply   the fixation as a field, for vpremesh field-sheet
+                                                  (and vpremesh local --attention-map: an oracle)
+  gaze-score.py blend GAZE.ply FIELD.ply T OUT.ply
+                                                  T x fixation-field + (1 - T) x the field's rank in
+                                                  [0, 1]: predictors between ours (T = 0) and the
+                                                  measured fixation (T = 1), for --attention-map
 
 GAZE.ply: a mesh of ../shared/gaze/ (vertex properties x y z fixation top5).
 FIELD.ply: the same mesh written by `vpremesh local --field-out`, vertices in
@@ -211,6 +216,32 @@ def fixation_field(fixation):
     return out
 
 
+def rank01(values):
+    """Each value's rank over n - 1, in [0, 1]; ties share their mean rank."""
+    values = np.asarray(values, np.float64)
+    n = len(values)
+    if n < 2:
+        return np.zeros(n)
+    order = np.argsort(values, kind="mergesort")
+    sorted_values = values[order]
+    ranks = np.empty(n)
+    i = 0
+    while i < n:
+        j = i
+        while j < n and sorted_values[j] == sorted_values[i]:
+            j += 1
+        ranks[order[i:j]] = 0.5 * (i + j - 1)
+        i = j
+    return ranks / (n - 1)
+
+
+def blend(fixation, field, t):
+    """t x fixation_field + (1 - t) x rank01(field): a predictor of attention
+    between the field (t = 0) and the measured fixation (t = 1), whose AUC
+    rises with t (docs/perception.md: what a better predictor would buy)."""
+    return t * fixation_field(fixation) + (1.0 - t) * rank01(field)
+
+
 def write_field_ply(path, p, f, field):
     """Binary PLY with x y z saliency and the triangles (the property vpremesh reads as a field)."""
     v = np.zeros(len(p), np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("saliency", "<f4")]))
@@ -269,6 +300,17 @@ def main(argv):
         d = surface_distance(q, positions(rv), rf) / diag
         w = g["fixation"]
         print(f"weighted {np.sum(w * d) / np.sum(w):.6g} plain {np.mean(d):.6g} vertices {len(rv['x'])}")
+    elif cmd == "blend" and len(args) == 4:
+        g, f = gaze_of(args[0])
+        fv, _ = read_ply(args[1])
+        if len(fv["x"]) != len(g["x"]) or np.max(np.abs(positions(fv) - positions(g))) > 1e-4:
+            sys.exit(f"gaze-score: {args[1]} does not hold {args[0]}'s vertices in its order")
+        t = float(args[2])
+        if not 0.0 <= t <= 1.0:
+            sys.exit(f"gaze-score: blend weight {t} is not in [0, 1]")
+        b = blend(g["fixation"], fv["saliency"], t)
+        write_field_ply(args[3], positions(g), f, b)
+        print(f"blend {t:g}: AUC {auc(b, g['top5'] > 0):.3f} CC {cc(b, g['fixation']):.3f}")
     elif cmd == "fixation-field" and len(args) == 2:
         g, f = gaze_of(args[0])
         write_field_ply(args[1], positions(g), f, fixation_field(g["fixation"]))

@@ -124,6 +124,34 @@ class GazeScore(unittest.TestCase):
             np.testing.assert_array_equal(f, faces)
             np.testing.assert_allclose(v["saliency"], [0, 1, 0.2, 0], atol=1e-6)
 
+    def test_blend_runs_from_the_fields_rank_to_the_fixation(self):
+        fixation = [0, 5, 1, 0, 9, 5]
+        field = [0.3, 0.1, 0.1, 0.9, 0.5, 0.2]
+        # Ranks of the field over n - 1 = 5, the two 0.1s sharing their mean rank (0.5).
+        np.testing.assert_allclose(gs.rank01(field), [3 / 5, 0.1, 0.1, 1.0, 4 / 5, 2 / 5])
+        np.testing.assert_allclose(gs.blend(fixation, field, 0.0), gs.rank01(field))
+        np.testing.assert_allclose(gs.blend(fixation, field, 1.0), gs.fixation_field(fixation))
+        np.testing.assert_allclose(gs.blend(fixation, field, 0.25),
+                                   0.25 * gs.fixation_field(fixation) + 0.75 * gs.rank01(field))
+        with tempfile.TemporaryDirectory() as tmp:
+            q = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], float)
+            faces = np.array([[0, 1, 2], [1, 3, 2]])
+            write_ply(os.path.join(tmp, "gaze.ply"), q, faces,
+                      [("fixation", "float", "<f4", [0, 2, 1, 0]), ("top5", "uchar", "u1", [0, 1, 0, 0])])
+            write_ply(os.path.join(tmp, "field.ply"), q, faces, [("saliency", "float", "<f4", [0.4, 0.1, 0.2, 0.3])])
+            out = subprocess.run([sys.executable, SCRIPT, "blend", os.path.join(tmp, "gaze.ply"),
+                                  os.path.join(tmp, "field.ply"), "0.5", os.path.join(tmp, "b.ply")],
+                                 capture_output=True, text=True, check=True)
+            v, _ = gs.read_ply(os.path.join(tmp, "b.ply"))
+            # fixation field [0, 1, 0.2, 0]; the field's ranks [1, 0, 1/3, 2/3].
+            np.testing.assert_allclose(v["saliency"], [0.5, 0.5, (0.2 + 1 / 3) / 2, 1 / 3], atol=1e-6)
+            self.assertIn("AUC", out.stdout)
+            bad = subprocess.run([sys.executable, SCRIPT, "blend", os.path.join(tmp, "gaze.ply"),
+                                  os.path.join(tmp, "field.ply"), "1.5", os.path.join(tmp, "b.ply")],
+                                 capture_output=True, text=True)
+            self.assertNotEqual(bad.returncode, 0)
+            self.assertIn("not in [0, 1]", bad.stderr)
+
     def test_point_triangle_distance_against_sampling(self):
         rng = np.random.default_rng(7)
         a, b, c = rng.normal(size=(3, 200, 3))
