@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cstdint>
 #include <memory>
 #include <cmath>
 #include <numeric>
@@ -1004,14 +1005,21 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     rebuild();
     merged += taken;
   };
+  // The defective cells of the labels as they end, when the last round
+  // counted them and changed nothing after (else counted again below).
+  size_t defective_at_end = SIZE_MAX;
   for (int round = 0; round < options.topology_rounds; ++round) {
     std::vector<uint32_t> bad = defective_cells(mesh, adj, label, clusters_now);
+    const size_t defective = bad.size();
     for (uint32_t c = 0; c < clusters_now; ++c)  // a cell on two loops would join them
       if (loops_of_cluster[c] > 1) bad.push_back(c);
     std::sort(bad.begin(), bad.end());
     bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
     if (bad.empty() || splits >= split_budget) {
-      if (round == 0 || clusters_now == count) break;
+      if (round == 0 || clusters_now == count) {
+        defective_at_end = defective;
+        break;
+      }
       bad.clear();  // no split this round: the merges below bring the count back
     }
     if (bad.size() > split_budget - splits) {
@@ -1091,7 +1099,8 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     stats->clusters = clusters_now;
     stats->cells_split = splits;
     stats->cells_merged = merged;
-    stats->defective_cells = defective_cells(mesh, adj, label, clusters_now).size();
+    stats->defective_cells = defective_at_end != SIZE_MAX ? defective_at_end
+                                                          : defective_cells(mesh, adj, label, clusters_now).size();
   }
   *label_out = std::move(label);
   return Status::Ok();
