@@ -95,16 +95,15 @@ Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces) {
 
 }  // namespace
 
-Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const std::vector<uint32_t>& label,
-                            uint32_t target, Mesh* out, std::vector<uint32_t>* cell_of_vertex,
-                            PartFallbackStats* stats) {
-  *stats = {};
+SurfaceParts surface_parts(const Mesh& surface, const MeshEdges& edges) {
+  SurfaceParts sp;
   const size_t nv = surface.vertex_count();
-  if (label.size() != nv || edges.vertex_count() != nv || cell_of_vertex->size() != out->vertex_count())
-    return internal_error("part fallback: the surface, its cells and the output disagree");
   size_t parts = 0;
-  const std::vector<uint32_t> face_part = face_parts(surface, &parts);
-  std::vector<uint32_t> vertex_part(nv, UINT32_MAX);
+  sp.face_part = face_parts(surface, &parts);
+  sp.parts = parts;
+  const std::vector<uint32_t>& face_part = sp.face_part;
+  std::vector<uint32_t>& vertex_part = sp.vertex_part;
+  vertex_part.assign(nv, UINT32_MAX);
   std::vector<int64_t> part_face_count(parts, 0);
   for (size_t f = 0; f < surface.face_count(); ++f) {
     if (face_part[f] == UINT32_MAX) continue;
@@ -118,8 +117,12 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
   // Open parts too, where they are manifolds (every edge in one or two
   // faces): their boundary loops, counted as the pieces of their border
   // edges' graph.
-  std::vector<char> closed(parts, 1), manifold(parts, 1);
-  std::vector<int64_t> euler(parts, 0);
+  std::vector<char>& closed = sp.closed;
+  std::vector<char>& manifold = sp.manifold;
+  std::vector<int64_t>& euler = sp.euler;
+  closed.assign(parts, 1);
+  manifold.assign(parts, 1);
+  euler.assign(parts, 0);
   std::vector<uint32_t> border_root(nv);
   std::iota(border_root.begin(), border_root.end(), 0u);
   auto root = [&](uint32_t x) {
@@ -142,10 +145,37 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const s
       }
     }
   }
-  std::vector<size_t> loops(parts, 0);
+  sp.loops.assign(parts, 0);
   for (uint32_t u = 0; u < nv; ++u)
-    if (on_border[u] && root(u) == u && vertex_part[u] != UINT32_MAX) ++loops[vertex_part[u]];
+    if (on_border[u] && root(u) == u && vertex_part[u] != UINT32_MAX) ++sp.loops[vertex_part[u]];
   for (uint32_t p = 0; p < parts; ++p) euler[p] += part_face_count[p];
+  return sp;
+}
+
+Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const std::vector<uint32_t>& label,
+                            uint32_t target, Mesh* out, std::vector<uint32_t>* cell_of_vertex,
+                            PartFallbackStats* stats) {
+  if (label.size() != surface.vertex_count() || edges.vertex_count() != surface.vertex_count())
+    return internal_error("part fallback: the surface, its cells and the output disagree");
+  return replace_broken_parts(surface, edges, surface_parts(surface, edges), label, target, out, cell_of_vertex,
+                              stats);
+}
+
+Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const SurfaceParts& shapes,
+                            const std::vector<uint32_t>& label, uint32_t target, Mesh* out,
+                            std::vector<uint32_t>* cell_of_vertex, PartFallbackStats* stats) {
+  *stats = {};
+  const size_t nv = surface.vertex_count();
+  if (label.size() != nv || edges.vertex_count() != nv || cell_of_vertex->size() != out->vertex_count() ||
+      shapes.face_part.size() != surface.face_count() || shapes.vertex_part.size() != nv)
+    return internal_error("part fallback: the surface, its cells and the output disagree");
+  const size_t parts = shapes.parts;
+  const std::vector<uint32_t>& face_part = shapes.face_part;
+  const std::vector<uint32_t>& vertex_part = shapes.vertex_part;
+  const std::vector<char>& closed = shapes.closed;
+  const std::vector<char>& manifold = shapes.manifold;
+  const std::vector<int64_t>& euler = shapes.euler;
+  const std::vector<size_t>& loops = shapes.loops;
   uint32_t cells = 0;
   for (uint32_t l : label)
     if (l != UINT32_MAX) cells = std::max(cells, l + 1);

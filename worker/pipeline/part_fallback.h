@@ -29,6 +29,19 @@ struct PartFallbackStats {
   size_t parts_left = 0;       // broken, but the decimation was no better (left as the dual made them)
 };
 
+// The surface's parts and their shapes (a pure function of the surface and
+// its edges: the pipeline makes them beside the CVT, which does not need them).
+struct SurfaceParts {
+  size_t parts = 0;
+  std::vector<uint32_t> face_part;    // per face, its part (UINT32_MAX: none)
+  std::vector<uint32_t> vertex_part;  // per vertex, its part (UINT32_MAX: in no face)
+  std::vector<char> closed;           // per part: every edge in two faces
+  std::vector<char> manifold;         // per part: every edge in one or two faces
+  std::vector<int64_t> euler;         // per part: V - E + F
+  std::vector<size_t> loops;          // per part: boundary loops
+};
+SurfaceParts surface_parts(const Mesh& surface, const MeshEdges& edges);
+
 // surface: the refined input the CVT ran on, with its edges; label: its
 // vertices' cells. out, cell_of_vertex: the dual and each output vertex's
 // cell (mesh_clusters' results), rewritten where a part is replaced; a new
@@ -37,5 +50,9 @@ struct PartFallbackStats {
 Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const std::vector<uint32_t>& label,
                             uint32_t target, Mesh* out, std::vector<uint32_t>* cell_of_vertex,
                             PartFallbackStats* stats);
+// The same with the surface's parts already made (surface_parts(surface, edges)).
+Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const SurfaceParts& shapes,
+                            const std::vector<uint32_t>& label, uint32_t target, Mesh* out,
+                            std::vector<uint32_t>* cell_of_vertex, PartFallbackStats* stats);
 
 }  // namespace vpr

@@ -624,6 +624,11 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
         },
         &note));
     if (!soup) {
+      // The surface's parts and their shapes (the part fallback's reference)
+      // depend on the surface alone: made on their own thread while the CVT,
+      // whose serial steps leave cores idle, runs.
+      std::future<SurfaceParts> parts_beside =
+          std::async(std::launch::async, [&refined] { return surface_parts(refined.mesh, refined.edges); });
       std::vector<uint32_t> label;
       CvtOptions cvt = options.cvt;
       cvt.seed = options.sampling.seed;
@@ -659,8 +664,8 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, refined.edges, label, cells, &result.mesh, &cell,
                                               &result.cluster_mesh, options.cluster_mesh));
             PartFallbackStats fallback;
-            VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, label, options.target_vertices,
-                                                     &result.mesh, &cell, &fallback));
+            VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, parts_beside.get(), label,
+                                                     options.target_vertices, &result.mesh, &cell, &fallback));
             // A surface of scattered triangles that meet every which way (the
             // pipeline fuzzer makes them) can leave the dual no face: the job
             // fails with that, never returns an empty mesh as a result.
