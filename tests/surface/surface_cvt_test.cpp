@@ -458,6 +458,23 @@ TEST(SurfaceCvtTest, WindowAndOpenEndsStayOpen) {
   EXPECT_GE(rim, 2u * 10);
 }
 
+// The dual's quadrics and centroids summed per cell in parallel give the
+// bits of the one loop over the faces (boundary planes and creases included:
+// a box with a window, and an open tube).
+TEST(SurfaceCvtTest, PerCellSumsGiveTheOneLoopsBits) {
+  const Mesh window = box(1, 1, 1, 12, [](int face, int i, int j) { return face == 1 && i >= 4 && i < 8 && j >= 4 && j < 8; });
+  for (const Mesh& input : {window, tube(0.5, 1.0, 48, 24)}) {
+    ClusterMeshOptions loop, per_cell;
+    loop.per_cell_sums = 0;
+    per_cell.per_cell_sums = 1;
+    const Mesh a = remesh(input, 700, DensityMode::kCurvature, nullptr, loop);
+    const Mesh b = remesh(input, 700, DensityMode::kCurvature, nullptr, per_cell);
+    ASSERT_GT(a.vertex_count(), 600u);
+    EXPECT_EQ(a.positions, b.positions);
+    EXPECT_EQ(a.indices, b.indices);
+  }
+}
+
 // Edge length along the z axis over edge length across it, summed over the
 // mesh's edges.
 double axial_over_across(const Mesh& m) {

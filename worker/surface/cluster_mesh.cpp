@@ -17,6 +17,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
 
 #include "core/mesh_parts.h"
 #include "core/vec3.h"
@@ -485,35 +486,40 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   }
   std::vector<char> boundary_cell(count, 0);
 
-  // Quadrics, centroids (area-weighted) and the faces touching each cell.
+  // Quadrics, centroids (area-weighted) and the faces touching each cell:
+  // per face (of positive area) in face order, its plane once into each cell
+  // among its corners, each corner's share of its area into that corner's
+  // cell, and through an input boundary edge a plane across the surface (it
+  // keeps the vertex on the boundary line; weighted like a face: length^2)
+  // into the cells of the edge's ends. On many cores the faces' normals come
+  // first in parallel and then each cell sums its own faces' terms, in face
+  // order as the loop does: the same bits (a cell's faces lie scattered in
+  // memory, so on a few cores the one loop is faster).
   std::vector<Quadric> quadric(count);
   std::vector<Vector3d> centroid(count, Vector3d::Zero());
   std::vector<double> weight(count, 0.0);
   std::vector<CellFaces> cell_faces(count);
-  for (size_t f = 0; f < nf; ++f) {
+  auto corner = [&](const uint32_t* t, int k) { return eig(load3d(surface.positions.data(), t[k])); };
+  // Face f's terms into `cell` (every cell when cell is UINT32_MAX).
+  auto add_face = [&](size_t f, const Vector3d& n, double area, uint32_t only) {
     const uint32_t* t = &surface.indices[3 * f];
-    const Vector3d a = eig(load3d(surface.positions.data(), t[0])), b = eig(load3d(surface.positions.data(), t[1])),
-                   c = eig(load3d(surface.positions.data(), t[2]));
-    const Vector3d cr = (b - a).cross(c - a);
-    const double area = 0.5 * cr.norm();
-    if (!(area > 0)) continue;
-    const Vector3d n = cr.normalized();
+    const Vector3d a = corner(t, 0);
     uint32_t seen[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX};
     for (int k = 0; k < 3; ++k) {
       const uint32_t cell = label[t[k]];
       if (cell == UINT32_MAX || cell == seen[0] || cell == seen[1]) continue;
       seen[k] = cell;
+      if (only != UINT32_MAX && cell != only) continue;
       quadric[cell].add_plane(n, a, area);
-      cell_faces[cell].face.push_back(uint32_t(f));
+      if (only == UINT32_MAX) cell_faces[cell].face.push_back(uint32_t(f));
     }
     for (int k = 0; k < 3; ++k) {
       const uint32_t cell = label[t[k]];
       if (cell == UINT32_MAX) continue;
-      const Vector3d p = k == 0 ? a : k == 1 ? b : c;
-      centroid[cell] += p * (area / 3);
-      weight[cell] += area / 3;
-      // An input boundary edge: a plane through it, across the surface, keeps
-      // the vertex on the boundary line (weighted like a face: length^2).
+      if (only == UINT32_MAX || cell == only) {
+        centroid[cell] += corner(t, k) * (area / 3);
+        weight[cell] += area / 3;
+      }
       const uint32_t u = t[k], w = t[(k + 1) % 3];
       if (on_boundary[3 * f + k]) {
         const Vector3d pu = eig(load3d(surface.positions.data(), u)), pw = eig(load3d(surface.positions.data(), w));
@@ -521,12 +527,50 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
         const Vector3d across = e.cross(n).normalized();
         for (uint32_t end : {u, w}) {
           const uint32_t ec = label[end];
-          if (ec == UINT32_MAX) continue;
+          if (ec == UINT32_MAX || (only != UINT32_MAX && ec != only)) continue;
           boundary_cell[ec] = 1;
           quadric[ec].add_plane(across, pu, e.squaredNorm());
         }
       }
     }
+  };
+  auto face_plane = [&](size_t f, Vector3d* n, double* area) {
+    const uint32_t* t = &surface.indices[3 * f];
+    const Vector3d a = corner(t, 0), b = corner(t, 1), c = corner(t, 2);
+    const Vector3d cr = (b - a).cross(c - a);
+    *area = 0.5 * cr.norm();
+    if (*area > 0) *n = cr.normalized();
+  };
+  const bool per_cell = options.per_cell_sums > 0 ||
+                        (options.per_cell_sums < 0 && tbb::this_task_arena::max_concurrency() >= 8);
+  if (!per_cell) {
+    for (size_t f = 0; f < nf; ++f) {
+      Vector3d n;
+      double area;
+      face_plane(f, &n, &area);
+      if (area > 0) add_face(f, n, area, UINT32_MAX);
+    }
+  } else {
+    std::vector<Vector3d> normal(nf);
+    std::vector<double> face_area(nf);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t f = r.begin(); f != r.end(); ++f) face_plane(f, &normal[f], &face_area[f]);
+    });
+    for (size_t f = 0; f < nf; ++f) {  // each cell's faces, in face order
+      if (!(face_area[f] > 0)) continue;
+      const uint32_t* t = &surface.indices[3 * f];
+      uint32_t seen[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX};
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t cell = label[t[k]];
+        if (cell == UINT32_MAX || cell == seen[0] || cell == seen[1]) continue;
+        seen[k] = cell;
+        cell_faces[cell].face.push_back(uint32_t(f));
+      }
+    }
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 16), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t cell = r.begin(); cell != r.end(); ++cell)
+        for (uint32_t f : cell_faces[cell].face) add_face(f, normal[f], face_area[f], cell);
+    });
   }
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 64), [&](const tbb::blocked_range<uint32_t>& r) {
     for (uint32_t cell = r.begin(); cell != r.end(); ++cell) {

@@ -43,6 +43,10 @@ struct ClusterMeshOptions {
   // Rounds of tangential relaxation, each followed by Delaunay flips, before
   // the fit (0: the CVT's vertices as they are).
   int relax_rounds = 2;
+  // The cells' quadrics and centroids summed per cell in parallel (1) or in
+  // one loop over the faces (0); -1: in parallel where the machine has 8 or
+  // more threads. The same bits either way.
+  int per_cell_sums = -1;
   OffsetFitOptions offset;  // the L2 fit of the vertices along their normals (on by default)
 };
 
