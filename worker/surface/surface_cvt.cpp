@@ -358,18 +358,27 @@ std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, c
     });
     now.swap(next);
   }
-  // Hops to the nearest sharp vertex, up to `taper`.
+  // Hops to the nearest sharp vertex, up to `taper`. Which corners are sharp
+  // is decided per face in parallel; the distances do not depend on the
+  // order the sharp vertices are listed in.
   constexpr double kCos15 = 0.9659258262890683;
   std::vector<int> hops(nv, taper);
+  std::vector<uint8_t> sharp_corners(mesh.face_count(), 0);  // bit k: corner k is sharp
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.face_count(), 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f != r.end(); ++f) {
+      const uint32_t* t = &mesh.indices[3 * f];
+      const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+      const double len = norm(n);
+      if (!(len > 0)) continue;
+      for (int k = 0; k < 3; ++k)
+        if (dot(n, vertex_normal[t[k]]) < kCos15 * len) sharp_corners[f] |= uint8_t(1u << k);
+    }
+  });
   std::vector<uint32_t> frontier;
-  for (size_t f = 0; f < mesh.face_count(); ++f) {
-    const uint32_t* t = &mesh.indices[3 * f];
-    const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
-    const double len = norm(n);
-    if (!(len > 0)) continue;
+  for (size_t f = 0; f < mesh.face_count(); ++f)
     for (int k = 0; k < 3; ++k)
-      if (hops[t[k]] != 0 && dot(n, vertex_normal[t[k]]) < kCos15 * len) hops[t[k]] = 0, frontier.push_back(t[k]);
-  }
+      if ((sharp_corners[f] >> k & 1) && hops[mesh.indices[3 * f + k]] != 0)
+        hops[mesh.indices[3 * f + k]] = 0, frontier.push_back(mesh.indices[3 * f + k]);
   for (int d = 1; d < taper && !frontier.empty(); ++d) {
     std::vector<uint32_t> reached;
     for (uint32_t v : frontier)
@@ -377,10 +386,12 @@ std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, c
         if (hops[*w] > d) hops[*w] = d, reached.push_back(*w);
     frontier.swap(reached);
   }
-  for (size_t v = 0; v < nv; ++v) {
-    const double len = norm(now[v]);
-    if (len > 0) y[v] = now[v] * (anisotropy * double(hops[v]) / (double(taper) * len));
-  }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v) {
+      const double len = norm(now[v]);
+      if (len > 0) y[v] = now[v] * (anisotropy * double(hops[v]) / (double(taper) * len));
+    }
+  });
   return y;
 }
 
