@@ -568,7 +568,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
   // then its dual. Polygon soups (no usable connectivity) go on below.
   if (options.density != DensityMode::kPaper) {
     RefinedSurface refined;
-    std::vector<double> mass;
+    std::vector<double> area, mass;  // per surface element
     bool soup = false;
     std::string note;
     VPR_RETURN_IF_ERROR(stage.run(
@@ -606,7 +606,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           const size_t single = size_t(std::count(refined.edges.faces.begin(), refined.edges.faces.end(), 1u)) / 2;
           const size_t distinct = entries / 2;
           soup = distinct == 0 || single * 4 > distinct;
-          const std::vector<double> area = vertex_areas(refined.mesh);
+          area = vertex_areas(refined.mesh);
           mass.resize(area.size());
           for (size_t v = 0; v < area.size(); ++v) {
             const double dv = refined.value[2 * v + 1];
@@ -676,7 +676,6 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
                   std::to_string(options.target_vertices) + " vertices");
             // Each output vertex: its cell's mean importance (area-weighted).
             std::vector<double> sum(cells, 0.0), weight(cells, 0.0);
-            const std::vector<double> area = vertex_areas(refined.mesh);
             for (size_t v = 0; v < label.size(); ++v)
               if (label[v] != UINT32_MAX) {
                 sum[label[v]] += area[v] * refined.value[2 * v];
