@@ -189,33 +189,6 @@ def surface_distance(q, p, f):
     return out
 
 
-def fixation_field(fixation):
-    """Fixation time as a field in [0, 1] drawn on the same ramp as ours: 0 where
-    nobody looked (blue), else 0.2 + 0.8 x its rank among the looked-at
-    vertices, the attention field's own floor and rank normalization (so the
-    two pictures compare orderings, not units; ties share their mean rank)."""
-    fixation = np.asarray(fixation, np.float64)
-    out = np.zeros(len(fixation))
-    seen = fixation > 0
-    n = int(seen.sum())
-    if n == 1:
-        out[seen] = 1.0
-    elif n > 1:
-        values = fixation[seen]
-        order = np.argsort(values, kind="mergesort")
-        sorted_values = values[order]
-        ranks = np.empty(n)
-        i = 0
-        while i < n:
-            j = i
-            while j < n and sorted_values[j] == sorted_values[i]:
-                j += 1
-            ranks[order[i:j]] = 0.5 * (i + j - 1)
-            i = j
-        out[seen] = 0.2 + 0.8 * ranks / (n - 1)
-    return out
-
-
 def rank01(values):
     """Each value's rank over n - 1, in [0, 1]; ties share their mean rank."""
     values = np.asarray(values, np.float64)
@@ -233,6 +206,22 @@ def rank01(values):
         ranks[order[i:j]] = 0.5 * (i + j - 1)
         i = j
     return ranks / (n - 1)
+
+
+def fixation_field(fixation):
+    """Fixation time as a field in [0, 1] drawn on the same ramp as ours: 0 where
+    nobody looked (blue), else 0.2 + 0.8 x its rank among the looked-at
+    vertices, the attention field's own floor and rank normalization (so the
+    two pictures compare orderings, not units; ties share their mean rank)."""
+    fixation = np.asarray(fixation, np.float64)
+    out = np.zeros(len(fixation))
+    seen = fixation > 0
+    n = int(seen.sum())
+    if n == 1:
+        out[seen] = 1.0
+    elif n > 1:
+        out[seen] = 0.2 + 0.8 * rank01(fixation[seen])
+    return out
 
 
 def blend(fixation, field, t):
