@@ -254,6 +254,12 @@ TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
   const std::string cloud = write("cloud.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
   const std::string empty = write("empty.off", "");
   const std::string corrupt = write("corrupt.drc", std::string("DRACO\x02\x02\x01\x01\x00\x00garbage", 18));
+  const std::string ply_head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                               "property float z\n";
+  const std::string ply_tail = "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string map3 = write("map3.ply", ply_head + "property float saliency\n" + ply_tail +
+                                                 "0 0 0 0.5\n1 0 0 0.2\n0 1 0 0.9\n3 0 1 2\n");
+  const std::string no_map = write("nomap.ply", ply_head + ply_tail + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
   const std::string good = "../shared/models/spot.obj";
   const std::string spot_to_ply = "local " + good + " -o " + path("o.ply");
   const Case cases[] = {
@@ -274,6 +280,9 @@ TEST_F(CliTest, BadInputsGetOneClearLineAndTheirExitCode) {
       {spot_to_ply + " --lod 500,1.5", 3, "whole number"},
       {spot_to_ply + " --lod 1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1,1", 3, "at most 16"},
       {spot_to_ply + " --min-ssim 1.2", 3, "outside (0, 1)"},
+      {spot_to_ply + " -n 500 --attention-map " + map3, 3, "attention map has 3 values for a mesh of 2930 vertices"},
+      {spot_to_ply + " -n 500 --attention-map " + no_map, 3, "has no 'saliency' values"},
+      {spot_to_ply + " -n 500 --attention-map " + path("nomap-missing.ply"), 7, "nomap-missing.ply"},
   };
   for (const Case& c : cases) {
     CliRun r = run_cli(c.args);
