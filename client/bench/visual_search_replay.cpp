@@ -96,15 +96,8 @@ vpr::StatusOr<Replayed> replay(const vpr::VisualTargetOptions& o, const std::vec
   double t = 0;
   for (uint32_t n = search.next(); n != 0; n = search.next()) {
     if (ahead != Ahead::kNone) {
-      std::vector<uint32_t> branches;
-      vpr::VisualSearch if_passes = search;
-      if_passes.record(n, std::min(o.min_ssim + 1e-4, 1.0));
-      branches.push_back(if_passes.next());
-      if (ahead == Ahead::kBoth) {
-        vpr::VisualSearch if_fails = search;
-        if_fails.record(n, o.min_ssim - fail_guess);
-        branches.push_back(if_fails.next());
-      }
+      std::vector<uint32_t> branches = {search.next_after(n, std::min(o.min_ssim + 1e-4, 1.0))};
+      if (ahead == Ahead::kBoth) branches.push_back(search.next_after(n, o.min_ssim - fail_guess));
       for (uint32_t b : branches)
         if (b != 0 && b != n && !made.count(b)) made[b] = {t, seconds_at(curve, b)};
     }

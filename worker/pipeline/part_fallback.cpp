@@ -25,7 +25,9 @@ struct Shape {
   size_t loops = 0;
 };
 
-Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces) {
+// rank: a table of UINT32_MAX that the calls share (one per part would cost
+// the whole output's size per part); grown as needed, left as it was found.
+Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces, std::vector<uint32_t>* rank) {
   Shape s;
   if (faces.empty()) return s;
   std::vector<uint32_t> verts;
@@ -34,9 +36,9 @@ Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces) {
   verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
   // Each vertex's rank among the part's (a table: a binary search per corner
   // cost more than the rest of this function together).
-  std::vector<uint32_t> rank(size_t(verts.back()) + 1, UINT32_MAX);
-  for (uint32_t i = 0; i < uint32_t(verts.size()); ++i) rank[verts[i]] = i;
-  auto local = [&](uint32_t v) { return rank[v]; };
+  if (rank->size() <= verts.back()) rank->resize(size_t(verts.back()) + 1, UINT32_MAX);
+  for (uint32_t i = 0; i < uint32_t(verts.size()); ++i) (*rank)[verts[i]] = i;
+  auto local = [&](uint32_t v) { return (*rank)[v]; };
   // Directed edges: each once, and its reverse once.
   std::vector<uint64_t> directed;
   for (const auto& f : faces)
@@ -94,6 +96,7 @@ Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces) {
   s.closed_manifold = manifold && border.empty();
   s.one_piece = pieces == 1;
   s.euler = int64_t(verts.size()) - int64_t(edges) + int64_t(faces.size());
+  for (uint32_t v : verts) (*rank)[v] = UINT32_MAX;
   return s;
 }
 
@@ -210,6 +213,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
     return shape.manifold && shape.one_piece && shape.euler == euler[p] && shape.loops == loops[p] &&
            shape.closed_manifold == bool(closed[p]);
   };
+  std::vector<uint32_t> rank;  // shape_of's table, shared by the parts
   for (uint32_t p = 0; p < parts; ++p) {
     if (!manifold[p]) continue;  // no shape to hold the dual to
     // A part the CVT gave no cell (the target too small for every part: the
@@ -217,7 +221,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
     // replacement's vertices to take.
     if (part_cells[p] == 0) continue;
     ++(closed[p] ? stats->closed_parts : stats->open_parts);
-    const Shape now = shape_of(out_faces[p]);
+    const Shape now = shape_of(out_faces[p], &rank);
     if (whole(now, p)) continue;
     // The part alone, compact, in the surface's frame.
     Mesh sub;
@@ -248,7 +252,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
     // not taken: the part stays as the dual made it. (Parts welded at single
     // vertices no longer reach here as one part: refine_surface splits such
     // vertices, surface/pinch_split.h.)
-    if (!whole(shape_of(faces), p)) {
+    if (!whole(shape_of(faces, &rank), p)) {
       ++stats->parts_left;
       continue;
     }

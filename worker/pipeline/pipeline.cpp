@@ -528,6 +528,9 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
         std::vector<float> h_own;
         if (curvature.empty() || ahead.h.size() != input.vertex_count())
           h_own = attention_curvature(input, options.attention, &curvature);
+        // A given attention map takes the field's place (below): only the
+        // curvature, which the density needs, is made here then.
+        if (options.attention_map) return Status::Ok();
         const bool prepared =
             h_own.empty() && !ahead.prep.fine.empty() && ahead.prep.fine.size() == input.vertex_count();
         const float* h = h_own.empty() ? ahead.h.data() : h_own.data();
@@ -784,10 +787,6 @@ PipelineResult level_result(const FrontHalf& front, int level, uint32_t target) 
   return r;
 }
 
-// A level with a visual target: back halves at the counts the search picks,
-// each judged by SSIM against the input from the job's own views (count and
-// resolution); the level is the smallest count that reached the bound (or the
-// largest tried, when none did, which its note says).
 // The options with their callbacks (keep_going, on_stage, on_stage_begin)
 // called under `lock`, for back halves that run on several threads at once.
 PipelineOptions with_locked_callbacks(const PipelineOptions& options, std::mutex* lock) {
@@ -828,6 +827,10 @@ struct AheadTry {
   std::vector<StageTiming> held;  // its stage events, sent when the search takes it
 };
 
+// A level with a visual target: back halves at the counts the search picks,
+// each judged by SSIM against the input from the job's own views (count and
+// resolution); the level is the smallest count that reached the bound (or the
+// largest tried, when none did, which its note says).
 StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptions& options, int level,
                                            const LevelTarget& target) {
   const double min_ssim = target.min_ssim;
@@ -904,9 +907,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     if (ahead_on) {
       for (const double s : {std::min(min_ssim + kFailingMargin, 1.0), min_ssim - kFailingMargin}) {
         if (s < min_ssim && options.visual_target_ahead != 2) continue;  // the pass's try only
-        VisualSearch after = search;
-        after.record(count, s);
-        const uint32_t next = after.next();
+        const uint32_t next = search.next_after(count, s);
         if (next != 0 && next != count && !ahead.count(next)) make_ahead(next);
       }
     }
@@ -978,10 +979,13 @@ Status finish_level(const FrontHalf& front, const Mesh& given, const PipelineOpt
 // Count levels of the surface CVT, run side by side (PipelineOptions::
 // levels_side_by_side): each level's back half is one task of a task group,
 // so TBB runs one level's parallel loops on the cores another's serial steps
-// leave idle, as many levels at once as fit the memory one at a time holds. Each stage is deterministic on any thread
-// count, so every level has the bits it has alone. A level is delivered as soon as it and the levels before it are
-// done, and its stage events stream in level order (as one at a time); the callbacks are called under one lock, never
-// two at once; a failure (the first in level order) stops the later levels at their next stage.
+// leave idle, as many levels at once as fit the memory one at a time holds.
+// Each stage is deterministic on any thread count, so every level has the
+// bits it has alone. A level is delivered as soon as it and the levels before
+// it are done, and its stage events stream in level order (as one at a
+// time); the callbacks are called under one lock, never two at once; a
+// failure (the first in level order) stops the later levels at their next
+// stage.
 Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const PipelineOptions& options,
                                const std::vector<uint32_t>& counts, const LevelCallback& on_level) {
   struct Slot {

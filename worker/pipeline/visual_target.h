@@ -57,6 +57,13 @@ class VisualSearch {
   uint32_t next() const { return done_ ? 0 : next_; }
   // The score of the try at next() (another count counts as that one's).
   void record(uint32_t count, double ssim);
+  // What the search would try after the try at `count` scored `ssim` (0: it
+  // would stop), the search itself unchanged.
+  uint32_t next_after(uint32_t count, double ssim) const {
+    VisualSearch after = *this;
+    after.record(count, ssim);
+    return after.next();
+  }
   VisualTargetOutcome outcome() const;
   const VisualTargetOptions& options() const { return o_; }
 

@@ -500,19 +500,25 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   std::vector<double> weight(count, 0.0);
   std::vector<CellFaces> cell_faces(count);
   auto corner = [&](const uint32_t* t, int k) { return eig(load3d(surface.positions.data(), t[k])); };
-  // Face f's terms into `cell` (every cell when cell is UINT32_MAX).
-  auto add_face = [&](size_t f, const Vector3d& n, double area, uint32_t only) {
-    const uint32_t* t = &surface.indices[3 * f];
-    const Vector3d a = corner(t, 0);
+  // fn(cell) for each cell among face t's corners, once each, in corner order.
+  auto for_each_cell_of = [&](const uint32_t* t, auto&& fn) {
     uint32_t seen[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX};
     for (int k = 0; k < 3; ++k) {
       const uint32_t cell = label[t[k]];
       if (cell == UINT32_MAX || cell == seen[0] || cell == seen[1]) continue;
       seen[k] = cell;
-      if (only != UINT32_MAX && cell != only) continue;
+      fn(cell);
+    }
+  };
+  // Face f's terms into `only` (every cell when only is UINT32_MAX).
+  auto add_face = [&](size_t f, const Vector3d& n, double area, uint32_t only) {
+    const uint32_t* t = &surface.indices[3 * f];
+    const Vector3d a = corner(t, 0);
+    for_each_cell_of(t, [&](uint32_t cell) {
+      if (only != UINT32_MAX && cell != only) return;
       quadric[cell].add_plane(n, a, area);
       if (only == UINT32_MAX) cell_faces[cell].face.push_back(uint32_t(f));
-    }
+    });
     for (int k = 0; k < 3; ++k) {
       const uint32_t cell = label[t[k]];
       if (cell == UINT32_MAX) continue;
@@ -556,17 +562,9 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 4096), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t f = r.begin(); f != r.end(); ++f) face_plane(f, &normal[f], &face_area[f]);
     });
-    for (size_t f = 0; f < nf; ++f) {  // each cell's faces, in face order
-      if (!(face_area[f] > 0)) continue;
-      const uint32_t* t = &surface.indices[3 * f];
-      uint32_t seen[3] = {UINT32_MAX, UINT32_MAX, UINT32_MAX};
-      for (int k = 0; k < 3; ++k) {
-        const uint32_t cell = label[t[k]];
-        if (cell == UINT32_MAX || cell == seen[0] || cell == seen[1]) continue;
-        seen[k] = cell;
-        cell_faces[cell].face.push_back(uint32_t(f));
-      }
-    }
+    for (size_t f = 0; f < nf; ++f)  // each cell's faces, in face order
+      if (face_area[f] > 0)
+        for_each_cell_of(&surface.indices[3 * f], [&](uint32_t cell) { cell_faces[cell].face.push_back(uint32_t(f)); });
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 16), [&](const tbb::blocked_range<uint32_t>& r) {
       for (uint32_t cell = r.begin(); cell != r.end(); ++cell)
         for (uint32_t f : cell_faces[cell].face) add_face(f, normal[f], face_area[f], cell);
