@@ -175,6 +175,56 @@ TEST(PartFallback, APartTheCvtGaveNoCellIsLeftAlone) {
   for (uint32_t c : d.cell) EXPECT_LT(c, d.cells);
 }
 
+TEST(PartFallback, PartsJoinedInTheDualAreLeftTogether) {
+  // Where input parts share vertices (a part that is not a manifold touching
+  // another), a cell can span both and the dual joins them: a face has
+  // corners in cells of two parts. Cutting one part out then split the fans
+  // of the other's vertices around it (the pipeline fuzzer's input
+  // nonmanifold-vertex-after-part-fallback). Here a vertex of square B's
+  // dual takes a cell of square A, and B's dual is broken elsewhere.
+  Mesh two = open_square(30);
+  const Mesh b = open_square(30);
+  const uint32_t base = uint32_t(two.vertex_count());
+  for (size_t v = 0; v < b.vertex_count(); ++v)
+    two.positions.insert(two.positions.end(), {b.positions[3 * v] + 2.0f, b.positions[3 * v + 1], b.positions[3 * v + 2]});
+  for (uint32_t i : b.indices) two.indices.push_back(base + i);
+  Dual d = dual_of(two, 200);
+  // Each cell's square, by its surface vertices.
+  std::vector<int> cell_square(d.cells, -1);
+  for (size_t v = 0; v < d.surface.vertex_count(); ++v)
+    if (d.label[v] < d.cells) cell_square[d.label[v]] = v < base ? 0 : 1;
+  auto square_of = [&](uint32_t out_vertex) { return cell_square[d.cell[out_vertex]]; };
+  // An output vertex of B used by at least three faces, none of which it leads.
+  size_t face = d.out.face_count();
+  for (size_t f = 0; f < d.out.face_count() && face == d.out.face_count(); ++f) {
+    const uint32_t* t = &d.out.indices[3 * f];
+    if (square_of(t[0]) != 1 || square_of(t[1]) != 1 || square_of(t[2]) != 1) continue;
+    int uses = 0;
+    for (uint32_t i : d.out.indices) uses += i == t[1];
+    if (uses >= 3) face = f;
+  }
+  ASSERT_LT(face, d.out.face_count());
+  const uint32_t moved = d.out.indices[3 * face + 1];
+  uint32_t cell_in_a = 0;
+  while (cell_square[cell_in_a] != 0) ++cell_in_a;
+  d.cell[moved] = cell_in_a;
+  // B broken away from that vertex: its last face (by first corner) removed.
+  size_t last_b = d.out.face_count();
+  for (size_t f = 0; f < d.out.face_count(); ++f) {
+    const uint32_t* t = &d.out.indices[3 * f];
+    if (square_of(t[0]) == 1 && t[0] != moved && t[1] != moved && t[2] != moved) last_b = f;
+  }
+  ASSERT_LT(last_b, d.out.face_count());
+  d.out.indices.erase(d.out.indices.begin() + long(3 * last_b), d.out.indices.begin() + long(3 * last_b + 3));
+  const Mesh before = d.out;
+  PartFallbackStats stats;
+  ASSERT_TRUE(replace_broken_parts(d.surface, d.edges, d.label, 200, &d.out, &d.cell, &stats).ok());
+  EXPECT_EQ(stats.open_parts, 2u);
+  EXPECT_EQ(stats.parts_replaced, 0u);
+  EXPECT_EQ(stats.parts_left, 2u);  // joined: neither can be cut out alone
+  EXPECT_EQ(d.out.indices, before.indices);
+}
+
 TEST(PartFallback, RefusesMismatchedInputs) {
   Dual d = dual_of_torus(100);
   d.cell.pop_back();

@@ -193,11 +193,22 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
       cell_part[label[v]] = vertex_part[v];
       if (part_cells[vertex_part[v]]++ == 0) first_cell[vertex_part[v]] = label[v];
     }
-  // The output's faces by the part their cells lie in.
+  // The output's faces by the part their cells lie in. A face whose corners'
+  // cells lie in different parts (parts that share input vertices, e.g.
+  // where a part that is not a manifold touches another, give cells that
+  // span both) joins those parts in the output: neither can be cut out and
+  // replaced alone, since the splice would leave the other part's faces
+  // around the shared vertices in separate fans (a non-manifold vertex).
+  auto part_of_cell = [&](uint32_t c) { return c < cells ? cell_part[c] : UINT32_MAX; };
   std::vector<std::vector<std::array<uint32_t, 3>>> out_faces(parts);
+  std::vector<char> joined(parts, 0);
   for (size_t f = 0; f < out->face_count(); ++f) {
-    const uint32_t c = (*cell_of_vertex)[out->indices[3 * f]];
-    const uint32_t p = c < cells ? cell_part[c] : UINT32_MAX;
+    std::array<uint32_t, 3> corner_part{};
+    for (int k = 0; k < 3; ++k) corner_part[size_t(k)] = part_of_cell((*cell_of_vertex)[out->indices[3 * f + k]]);
+    const uint32_t p = corner_part[0];
+    if (corner_part[1] != p || corner_part[2] != p)
+      for (uint32_t q : corner_part)
+        if (q != UINT32_MAX) joined[q] = 1;
     if (p != UINT32_MAX) out_faces[p].push_back({out->indices[3 * f], out->indices[3 * f + 1], out->indices[3 * f + 2]});
   }
 
@@ -221,6 +232,10 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
     // replacement's vertices to take.
     if (part_cells[p] == 0) continue;
     ++(closed[p] ? stats->closed_parts : stats->open_parts);
+    if (joined[p]) {  // broken (the input's parts are apart) and not replaceable alone
+      ++stats->parts_left;
+      continue;
+    }
     const Shape now = shape_of(out_faces[p], &rank);
     if (whole(now, p)) continue;
     // The part alone, compact, in the surface's frame.
@@ -277,8 +292,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
   for (const Replacement& r : replacements) replaced[r.part] = 1;
   std::vector<char> keep_face(out->face_count(), 1), keep_vertex(out->vertex_count(), 0);
   for (size_t f = 0; f < out->face_count(); ++f) {
-    const uint32_t c = (*cell_of_vertex)[out->indices[3 * f]];
-    const uint32_t p = c < cells ? cell_part[c] : UINT32_MAX;
+    const uint32_t p = part_of_cell((*cell_of_vertex)[out->indices[3 * f]]);
     keep_face[f] = p == UINT32_MAX || !replaced[p];
     if (keep_face[f])
       for (int k = 0; k < 3; ++k) keep_vertex[out->indices[3 * f + k]] = 1;
