@@ -156,7 +156,10 @@ TEST(LodChain, VisualTargetFindsTheFewestVerticesThatKeepTheBound) {
   ASSERT_EQ(found.size(), 1u);
   const PipelineResult& r = found[0];
   ASSERT_GT(r.search.tries, 0);
-  EXPECT_LE(r.search.tries, 8) << tries;
+  // Well inside the search's limit of 12. How many it takes depends on the
+  // scores' noise near the bound: over sampling seeds 1-7 this sphere took
+  // 4-9 tries (9 where five passing tries walk down a plateau 2% at a time).
+  EXPECT_LE(r.search.tries, 9) << tries;
   EXPECT_DOUBLE_EQ(r.search.min_ssim, kBound);
   ASSERT_GE(r.search.ssim, kBound) << "not reached: " << r.target << " vertices";
   EXPECT_EQ(r.mesh.vertex_count(), size_t(r.target)) << "the level is the chosen count's output";

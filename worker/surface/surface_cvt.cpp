@@ -18,6 +18,7 @@
 
 #include "core/rng.h"
 #include "core/vec3.h"
+#include "surface/morton_order.h"
 
 namespace vpr {
 namespace {
@@ -603,24 +604,44 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       --quota[p];
     }
   }
-  // The rest: per part, elements drawn in proportion to mass (Philox keyed
-  // by the seed: the same on every machine and thread count).
+  // The rest: per part, stratified in proportion to mass. Along the part's
+  // elements in Morton order (morton_order.h) the mass accumulates to M; a
+  // seed goes where it crosses (u + k) M / q, k = 0 .. q - 1, one offset u
+  // per part (Philox keyed by the seed: the same on every machine and thread
+  // count). Each stretch of the curve holding M / q of the mass is a compact
+  // piece of the surface, so the seeds start spread evenly by mass, where
+  // independent draws clump and leave gaps. Against independent draws on
+  // the 15 shared models at two counts each (30 runs, 2026-11-27): the
+  // sweeps start at 14-21% lower energy and end lower in 27 of 30 runs
+  // (median -0.8%, from -4.6% to +0.7%), in 25% fewer sweeps (798 against
+  // 1,062), with 131 topology splits in all, not 222 (docs/quality.md).
+  Vec3d lo = x.empty() ? Vec3d{0, 0, 0} : x[0], hi = lo;
+  for (const Vec3d& p : x) {
+    lo = Vec3d{std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = Vec3d{std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
   for (size_t p = 0; p < parts; ++p) {
-    const auto& el = part_elements[p];
-    std::vector<double> cumulative(el.size());
-    double acc = 0;
-    for (size_t i = 0; i < el.size(); ++i) cumulative[i] = acc += std::max(mass[el[i]], 1e-300);
-    uint64_t draw = 0;
-    for (uint32_t k = 0; k < quota[p]; ++draw) {
-      const Philox4 r = random4(options.seed, p, draw);
-      const double u = (double(r.v[0]) + double(r.v[1]) / 4294967296.0) / 4294967296.0 * acc;
-      size_t i = size_t(std::upper_bound(cumulative.begin(), cumulative.end(), u) - cumulative.begin());
-      i = std::min(i, el.size() - 1);
-      // A taken element: the next free one in the part's order (always exists: quota <= size).
-      while (label[el[i]] != UINT32_MAX) i = (i + 1) % el.size();
-      label[el[i]] = uint32_t(seeds.size());
-      seeds.push_back(el[i]);
-      ++k;
+    if (quota[p] == 0) continue;
+    const std::vector<uint32_t> order = morton_order(x, part_elements[p], lo, extent);
+    double total = 0;
+    for (uint32_t v : order) total += std::max(mass[v], 1e-300);
+    const Philox4 r = random4(options.seed, p, 0);
+    const double offset = (double(r.v[0]) + double(r.v[1]) / 4294967296.0) / 4294967296.0;  // [0, 1)
+    const double step = total / quota[p];
+    double below = 0;  // mass of order[0 .. i)
+    size_t i = 0;
+    for (uint32_t k = 0; k < quota[p]; ++k) {
+      const double u = (offset + k) * step;
+      while (i + 1 < order.size() && below + std::max(mass[order[i]], 1e-300) <= u)
+        below += std::max(mass[order[i++]], 1e-300);
+      // A taken element (a loop's seed, or a heavy element that holds
+      // several steps): the next free one along the curve (always exists:
+      // quota <= size).
+      size_t j = i;
+      while (label[order[j]] != UINT32_MAX) j = (j + 1) % order.size();
+      label[order[j]] = uint32_t(seeds.size());
+      seeds.push_back(order[j]);
     }
   }
 
