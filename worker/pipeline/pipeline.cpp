@@ -365,7 +365,6 @@ void use_attention_map(const std::vector<float>& map, const FrontHalf& front, Pi
 Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   const Mesh& input = front->input;
   PipelineResult& result = front->shared;
-  const ExecContext ctx;  // stages without a GPU twin
   const std::string cpu = "cpu";
   front->start = Clock::now();
   if (options.attention_map) VPR_RETURN_IF_ERROR(check_attention_map(*options.attention_map, front->given_vertices));
