@@ -37,7 +37,12 @@ namespace vpr {
 
 struct CvtOptions {
   uint64_t seed = 1;
-  double tolerance = 1e-5;   // stop when a sweep lowers E by less than this fraction
+  // Stop when a sweep lowers E by less than this fraction. From stratified
+  // seeds E falls geometrically: within 0.1% of its end after about 8 sweeps.
+  // 1e-4 against 1e-5 on the referee's 30 cases: 23% fewer sweeps, final E
+  // within 0.05%, SSIM, FLIP, Hausdorff distance, angles and topology the same
+  // (docs/quality.md, "Stratified seeds").
+  double tolerance = 1e-4;
   int max_sweeps = 300;
   uint32_t min_per_part = 4;  // clusters each connected part gets at least (a tetrahedron), target permitting
   // Share of the target split equally between connected parts, the rest by
