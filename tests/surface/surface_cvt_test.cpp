@@ -191,6 +191,30 @@ TEST(SurfaceRefineTest, SplitsLongEdgesAndKeepsTheShape) {
 // different value sets carried onto it: each the bits refine_surface gives
 // for that set, on a surface with a pinch copy (two cubes sharing a corner)
 // and an unused vertex.
+TEST(SurfaceRefineTest, MidpointsAreNumberedInTheOrderTheFacesMeetTheirEdges) {
+  // Two unit triangles far apart, the first face on the higher vertex
+  // numbers: every edge is split in the first pass, and the new vertices
+  // follow the faces (face 0's edges first, corner by corner), not the
+  // edges' own order (which would put (0, 1) first).
+  Mesh m;
+  m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 5, 0, 0, 6, 0, 0, 5, 1, 0};
+  m.indices = {3, 4, 5, 0, 1, 2};
+  auto r = refine_geometry(m, 0.9, 1000);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_GE(r->pass_end.size(), 1u);
+  ASSERT_EQ(r->pass_end[0], 6u);  // six edges, all longer than 0.9 (the legs are 1)
+  EXPECT_EQ(std::vector<uint32_t>(r->midpoint_ends.begin(), r->midpoint_ends.begin() + 12),
+            (std::vector<uint32_t>{3, 4, 4, 5, 5, 3, 0, 1, 1, 2, 2, 0}));
+  // Each triangle split 1:4 and no edge left longer than 0.9.
+  EXPECT_EQ(r->mesh.face_count(), 8u);
+  for (size_t f = 0; f < r->mesh.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const Vec3d a = load3d(r->mesh.positions.data(), r->mesh.indices[3 * f + c]);
+      const Vec3d b = load3d(r->mesh.positions.data(), r->mesh.indices[3 * f + (c + 1) % 3]);
+      EXPECT_LE(norm(a - b), 0.9);
+    }
+}
+
 TEST(SurfaceRefineTest, GeometryFirstThenValuesGivesRefineSurfaceBits) {
   Mesh m = box(1, 1, 1, 1);
   const Mesh other = box(1, 1, 1, 1);
