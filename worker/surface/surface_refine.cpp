@@ -111,15 +111,16 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
       uint32_t corner;
       bool operator<(const LongCorner& o) const { return edge != o.edge ? edge < o.edge : corner < o.corner; }
     };
+    auto successor = [&](size_t h) { return idx[h - h % 3 + (h % 3 + 1) % 3]; };  // the next corner's vertex
     std::vector<char> is_long(3 * faces, 0);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, faces, 4096), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t f = r.begin(); f != r.end(); ++f)
-        for (int c = 0; c < 3; ++c) is_long[3 * f + c] = length2(idx[3 * f + c], idx[3 * f + (c + 1) % 3]) > max2;
+        for (size_t h = 3 * f; h < 3 * f + 3; ++h) is_long[h] = length2(idx[h], successor(h)) > max2;
     });
     std::vector<LongCorner> corners;
     for (size_t h = 0; h < 3 * faces; ++h)
       if (is_long[h]) {
-        const uint32_t a = idx[h], b = idx[h - h % 3 + (h % 3 + 1) % 3];
+        const uint32_t a = idx[h], b = successor(h);
         corners.push_back({uint64_t(std::min(a, b)) << 32 | std::max(a, b), uint32_t(h)});
       }
     if (corners.empty()) {
@@ -139,7 +140,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
       for (size_t k = r.begin(); k != r.end(); ++k) {
         const uint32_t h = first[k].first;
         ends[2 * k] = idx[h];
-        ends[2 * k + 1] = idx[h - h % 3 + (h % 3 + 1) % 3];
+        ends[2 * k + 1] = successor(h);
         for (size_t i = first[k].second; i < corners.size() && corners[i].edge == corners[first[k].second].edge; ++i)
           mid[corners[i].corner] = uint32_t(count + k);
       }
