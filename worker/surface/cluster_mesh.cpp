@@ -19,6 +19,7 @@
 #include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 
+#include "core/collect_in_order.h"
 #include "core/mesh_parts.h"
 #include "core/vec3.h"
 #include "surface/bounding_sphere.h"
@@ -595,13 +596,15 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       return v;
     };
     std::vector<char> on_loop(nv, 0);
-    for (size_t f = 0; f < nf; ++f)
-      for (int c = 0; c < 3; ++c)
-        if (on_boundary[3 * f + c]) {
-          const uint32_t u = surface.indices[3 * f + c], w = surface.indices[3 * f + (c + 1) % 3];
-          on_loop[u] = on_loop[w] = 1;
-          parent[find(u)] = find(w);
-        }
+    const std::vector<uint32_t> boundary_corners = collect_in_order<uint32_t>(
+        3 * nf, [&](size_t i, std::vector<uint32_t>* out) {
+          if (on_boundary[i]) out->push_back(uint32_t(i));
+        });
+    for (const uint32_t i : boundary_corners) {
+      const uint32_t u = surface.indices[i], w = surface.indices[i - i % 3 + (i % 3 + 1) % 3];
+      on_loop[u] = on_loop[w] = 1;
+      parent[find(u)] = find(w);
+    }
     std::map<uint32_t, std::set<uint32_t>> cells_of_loop;
     for (uint32_t v = 0; v < nv; ++v)
       if (on_loop[v] && label[v] != UINT32_MAX) cells_of_loop[find(v)].insert(label[v]);
@@ -613,14 +616,20 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       }
   }
   // Dual triangles: one per cell triple (the first face's orientation).
+  // The faces whose corners lie in three cells (a few in a hundred), found
+  // in parallel, then taken in face order.
+  const std::vector<std::array<uint32_t, 3>> triples = collect_in_order<std::array<uint32_t, 3>>(
+      nf, [&](size_t f, std::vector<std::array<uint32_t, 3>>* out) {
+        const uint32_t* t = &surface.indices[3 * f];
+        const uint32_t a = label[t[0]], b = label[t[1]], c = label[t[2]];
+        if (a == b || b == c || a == c || a == UINT32_MAX || b == UINT32_MAX || c == UINT32_MAX) return;
+        out->push_back({a, b, c});
+      });
   std::vector<std::array<uint32_t, 3>> tris;
-  for (size_t f = 0; f < nf; ++f) {
-    const uint32_t* t = &surface.indices[3 * f];
-    const uint32_t a = label[t[0]], b = label[t[1]], c = label[t[2]];
-    if (a == b || b == c || a == c || a == UINT32_MAX || b == UINT32_MAX || c == UINT32_MAX) continue;
-    std::array<uint32_t, 3> sorted = {a, b, c};
+  for (const std::array<uint32_t, 3>& t : triples) {
+    std::array<uint32_t, 3> sorted = t;
     std::sort(sorted.begin(), sorted.end());
-    if (seen_triples.insert(sorted).second) tris.push_back({a, b, c});
+    if (seen_triples.insert(sorted).second) tris.push_back(t);
   }
 
   st.holes_closed += close_dual_holes(&tris, [&](uint32_t cell) { return boundary_cell[cell] != 0; },

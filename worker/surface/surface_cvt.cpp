@@ -16,6 +16,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
+#include "core/collect_in_order.h"
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "surface/morton_order.h"
@@ -160,14 +161,16 @@ std::vector<uint32_t> spread_on_loop(const Adjacency& adj, const std::vector<uin
 std::vector<uint32_t> defective_cells(const Mesh& mesh, const Adjacency& adj, const std::vector<uint32_t>& label,
                                       uint32_t count) {
   // (cells, face) for each face with three cells: its triple point.
-  std::vector<std::array<uint32_t, 4>> corners;
-  for (size_t f = 0; f < mesh.face_count(); ++f) {
-    std::array<uint32_t, 3> t = {label[mesh.indices[3 * f]], label[mesh.indices[3 * f + 1]], label[mesh.indices[3 * f + 2]]};
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || t[0] == UINT32_MAX || t[1] == UINT32_MAX || t[2] == UINT32_MAX)
-      continue;
-    std::sort(t.begin(), t.end());
-    corners.push_back({t[0], t[1], t[2], uint32_t(f)});
-  }
+  std::vector<std::array<uint32_t, 4>> corners = collect_in_order<std::array<uint32_t, 4>>(
+      mesh.face_count(), [&](size_t f, std::vector<std::array<uint32_t, 4>>* out) {
+        std::array<uint32_t, 3> t = {label[mesh.indices[3 * f]], label[mesh.indices[3 * f + 1]],
+                                     label[mesh.indices[3 * f + 2]]};
+        if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || t[0] == UINT32_MAX || t[1] == UINT32_MAX ||
+            t[2] == UINT32_MAX)
+          return;
+        std::sort(t.begin(), t.end());
+        out->push_back({t[0], t[1], t[2], uint32_t(f)});
+      });
   tbb::parallel_sort(corners.begin(), corners.end());
   std::vector<char> bad(count, 0);
   std::vector<std::array<uint32_t, 3>> tris;
@@ -338,11 +341,15 @@ std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, c
   // 10,000: slope 2.4, 14 cells; bunny at 20,000: 2.7, 189; igea at 50,000:
   // 4.0, 1,270 cells and 130 more sweeps, the CVT 3.6 times as long). The
   // ramp is made longer where needed to keep its slope at most
-  // kMaxTaperSlope (a sequential sum: the same bits on any thread count).
-  double edge_sum = 0;
-  size_t edge_count = 0;
-  for (uint32_t v = 0; v < nv; ++v)
-    for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) edge_sum += norm(x[*w] - x[v]), ++edge_count;
+  // kMaxTaperSlope (each vertex's row summed in parallel, the rows in
+  // order: the same sum on any thread count).
+  std::vector<double> row_sum(nv, 0.0);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 4096), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t v = r.begin(); v != r.end(); ++v)
+      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) row_sum[v] += norm(x[*w] - x[v]);
+  });
+  const double edge_sum = std::accumulate(row_sum.begin(), row_sum.end(), 0.0);
+  const size_t edge_count = adj.neighbor.size();
   const double mean_edge = edge_count ? edge_sum / double(edge_count) : 0.0;
   const double slope_hops = mean_edge > 0 ? std::ceil(anisotropy / (kMaxTaperSlope * mean_edge)) : 1.0;
   const int taper = int(std::clamp(std::max(std::lround(2 * std::sqrt(per_cell)), long(std::min(slope_hops, 1e6))), 1L, 256L));
@@ -380,11 +387,17 @@ std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, c
     for (int k = 0; k < 3; ++k)
       if ((sharp_corners[f] >> k & 1) && hops[mesh.indices[3 * f + k]] != 0)
         hops[mesh.indices[3 * f + k]] = 0, frontier.push_back(mesh.indices[3 * f + k]);
+  // A hop at a time: the last ring's neighbours not yet reached are found in
+  // parallel (in the order the serial walk meets them), then kept once each.
   for (int d = 1; d < taper && !frontier.empty(); ++d) {
+    const std::vector<uint32_t> found =
+        collect_in_order<uint32_t>(frontier.size(), [&](size_t i, std::vector<uint32_t>* out) {
+          for (const uint32_t* w = adj.begin(frontier[i]); w != adj.end(frontier[i]); ++w)
+            if (hops[*w] > d) out->push_back(*w);
+        }, 2048);
     std::vector<uint32_t> reached;
-    for (uint32_t v : frontier)
-      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
-        if (hops[*w] > d) hops[*w] = d, reached.push_back(*w);
+    for (uint32_t w : found)
+      if (hops[w] > d) hops[w] = d, reached.push_back(w);
     frontier.swap(reached);
   }
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
@@ -427,23 +440,31 @@ SlabSchedule slab_schedule(const std::vector<Vec3d>& x, const Adjacency& adj, co
   int axis = 0;
   for (int k = 1; k < 3; ++k)
     if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
-  std::vector<std::pair<double, uint32_t>> order;
-  for (uint32_t v = 0; v < nv; ++v)
-    if (label[v] != UINT32_MAX) order.push_back({coordinate(x[v], axis), v});
+  std::vector<std::pair<double, uint32_t>> order =
+      collect_in_order<std::pair<double, uint32_t>>(nv, [&](size_t v, std::vector<std::pair<double, uint32_t>>* out) {
+        if (label[v] != UINT32_MAX) out->push_back({coordinate(x[v], axis), uint32_t(v)});
+      });
   tbb::parallel_sort(order.begin(), order.end());  // distinct pairs: one order on any thread count
   s.slab_of.assign(nv, UINT32_MAX);
   s.elements.assign(s.slabs, {});
   s.last.assign(nv, 0);
-  for (size_t i = 0; i < order.size(); ++i) s.slab_of[order[i].second] = uint32_t(i * s.slabs / order.size());
-  for (uint32_t v = 0; v < nv; ++v) {
-    if (s.slab_of[v] == UINT32_MAX) continue;
-    bool alone = loop_of[v] == UINT32_MAX;
-    for (const uint32_t* w = adj.begin(v); w != adj.end(v) && alone; ++w)
-      alone = s.slab_of[*w] == UINT32_MAX ||
-              (s.slab_of[*w] + 1 >= s.slab_of[v] && s.slab_of[*w] <= s.slab_of[v] + 1);
-    (alone ? s.elements[s.slab_of[v]] : s.sequential).push_back(v);
-    if (!alone) s.last[v] = 1;
-  }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, order.size(), 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) s.slab_of[order[i].second] = uint32_t(i * s.slabs / order.size());
+  });
+  // Which elements a slab may move, per element in parallel; the lists in
+  // element order.
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 8192), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t v = r.begin(); v != r.end(); ++v) {
+      if (s.slab_of[v] == UINT32_MAX) continue;
+      bool alone = loop_of[v] == UINT32_MAX;
+      for (const uint32_t* w = adj.begin(v); w != adj.end(v) && alone; ++w)
+        alone = s.slab_of[*w] == UINT32_MAX ||
+                (s.slab_of[*w] + 1 >= s.slab_of[v] && s.slab_of[*w] <= s.slab_of[v] + 1);
+      s.last[v] = !alone;
+    }
+  });
+  for (uint32_t v = 0; v < nv; ++v)
+    if (s.slab_of[v] != UINT32_MAX) (s.last[v] ? s.sequential : s.elements[s.slab_of[v]]).push_back(v);
   return s;
 }
 
