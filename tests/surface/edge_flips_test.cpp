@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <set>
+#include <vector>
 
 #include "core/vec3.h"
 #include "test_meshes.h"
@@ -43,6 +45,68 @@ std::set<std::pair<uint32_t, uint32_t>> edges_of(const Mesh& m) {
 Mesh cap_beside_a_crease() {
   const double lean = 40 * kPi / 180;
   return mesh_of({{0, 0, 0}, {2, 0, 0}, {1, 0.02, 0}, {1, -std::cos(lean), std::sin(lean)}}, {0, 1, 2, 1, 0, 3});
+}
+
+// Two plane meshes: a jittered 24 x 24 grid with each square cut by a
+// diagonal chosen at random (hundreds of edges whose opposite angles sum
+// past pi, one pass fixes them), and 28 points on an ellipse joined as a fan
+// from one of them (each flip makes the next edge one the rule flips: many
+// passes, each looking only at edges next to the last pass's flips). At the
+// end no interior edge may be left that the rule would flip: in a plane
+// there is no crease, no fold, and c-d never exists.
+TEST(EdgeFlipsTest, DelaunayFlipsLeaveNoEdgeTheRuleWouldFlip) {
+  const int n = 24;
+  std::vector<Vec3d> points;
+  uint32_t state = 12345;
+  auto random = [&] {
+    state = state * 1664525u + 1013904223u;
+    return double(state >> 8) / double(1u << 24);
+  };
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) points.push_back({i + 0.35 * (random() - 0.5), j + 0.35 * (random() - 0.5), 0});
+  std::vector<uint32_t> indices;
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const uint32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 2, d = a + n + 1;
+      if (random() < 0.5) indices.insert(indices.end(), {a, b, c, a, c, d});
+      else indices.insert(indices.end(), {a, b, d, b, c, d});
+    }
+  Mesh m = mesh_of(points, indices);
+  auto angle_at = [&](uint32_t o, uint32_t a, uint32_t b) {
+    const Vec3d u = points[a] - points[o], w = points[b] - points[o];
+    return std::acos(std::clamp(dot(u, w) / (norm(u) * norm(w)), -1.0, 1.0));
+  };
+  // Interior edges whose two opposite angles sum past pi (+ a margin over rounding).
+  auto non_delaunay = [&](const Mesh& mesh) {
+    std::map<std::pair<uint32_t, uint32_t>, std::vector<uint32_t>> opposite;
+    for (size_t f = 0; f < mesh.face_count(); ++f)
+      for (int c = 0; c < 3; ++c) {
+        const uint32_t a = mesh.indices[3 * f + c], b = mesh.indices[3 * f + (c + 1) % 3],
+                       o = mesh.indices[3 * f + (c + 2) % 3];
+        opposite[{std::min(a, b), std::max(a, b)}].push_back(o);
+      }
+    int count = 0;
+    for (const auto& [e, o] : opposite)
+      if (o.size() == 2 && angle_at(o[0], e.first, e.second) + angle_at(o[1], e.first, e.second) > kPi + 1e-6) ++count;
+    return count;
+  };
+  ASSERT_GT(non_delaunay(m), 100);
+  delaunay_flips(&m);
+  EXPECT_EQ(non_delaunay(m), 0);
+  EXPECT_EQ(m.face_count(), indices.size() / 3);
+
+  const int k = 28;
+  points.clear();
+  indices.clear();
+  for (int i = 0; i < k; ++i) {
+    const double t = 2 * kPi * (i + 0.3 * random()) / k;
+    points.push_back({3 * std::cos(t), std::sin(t), 0});
+  }
+  for (uint32_t i = 1; i + 1 < uint32_t(k); ++i) indices.insert(indices.end(), {0, i, i + 1});
+  m = mesh_of(points, indices);
+  ASSERT_GT(non_delaunay(m), 5);
+  delaunay_flips(&m);
+  EXPECT_EQ(non_delaunay(m), 0);
 }
 
 TEST(EdgeFlipsTest, DelaunayFlipsKeepACapBesideACrease) {

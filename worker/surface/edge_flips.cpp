@@ -26,12 +26,20 @@ uint64_t key2(uint32_t a, uint32_t b) {
 // number of flips. Edges are visited in (min end, max end) order; each
 // vertex's row lists the edges to higher vertices (no hashing: a pass runs
 // many times per job).
+// recheck: per face, empty on the first pass (every edge is looked at). A
+// later pass looks only at edges with a face in it, and the pass leaves in
+// it the faces it flipped and those of edges it passed over because c-d
+// existed: want() depends on the vertices' positions alone, which no pass
+// moves, so any other edge has the same two faces as last pass (a flip never
+// makes an edge that exists) and gets the same "no" (the same flips as
+// looking at every edge, for a fraction of want()'s calls).
 template <class Want>
-size_t flip_pass(Mesh* mesh, Want want) {
+size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
   const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
   struct Slot {
     uint32_t other;
     int64_t face[2];  // the first two faces; face[1] -2: more than two
+    bool look;        // a face of the edge is in recheck
   };
   std::vector<uint32_t> start(nv + 1, 0);
   for (size_t f = 0; f < nf; ++f)
@@ -40,6 +48,7 @@ size_t flip_pass(Mesh* mesh, Want want) {
       ++start[std::min(u, w) + 1];
     }
   for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  const bool every_edge = recheck->empty();
   std::vector<Slot> slots(start[nv]);
   std::vector<uint32_t> used(nv, 0);  // slots of each row in use
   for (size_t f = 0; f < nf; ++f)
@@ -50,11 +59,12 @@ size_t flip_pass(Mesh* mesh, Want want) {
       uint32_t k = 0;
       while (k < used[lo] && row[k].other != hi) ++k;
       if (k == used[lo]) {
-        row[used[lo]++] = {hi, {int64_t(f), -1}};
+        row[used[lo]++] = {hi, {int64_t(f), -1}, false};
       } else {
         int64_t& second = row[k].face[1];
         second = second == -1 ? int64_t(f) : -2;  // -2: more than two faces
       }
+      if (!every_edge && (*recheck)[f]) row[k].look = true;
     }
   for (size_t v = 0; v < nv; ++v)
     std::sort(slots.begin() + start[v], slots.begin() + start[v] + used[v],
@@ -67,11 +77,12 @@ size_t flip_pass(Mesh* mesh, Want want) {
     return std::binary_search(made.begin(), made.end(), key2(a, b));
   };
   std::vector<char> touched(nf, 0);
+  std::vector<char> next_recheck(nf, 0);
   size_t flips = 0;
   for (uint32_t a = 0; a < nv; ++a)
     for (uint32_t j = start[a]; j < start[a] + used[a]; ++j) {
       const Slot& slot = slots[j];
-      if (slot.face[1] < 0) continue;
+      if (slot.face[1] < 0 || !(every_edge || slot.look)) continue;
       const int64_t f0 = slot.face[0], f1 = slot.face[1];
       if (touched[f0] || touched[f1]) continue;
       const uint32_t b = slot.other;
@@ -84,7 +95,11 @@ size_t flip_pass(Mesh* mesh, Want want) {
       uint32_t d = UINT32_MAX;
       for (int k = 0; k < 3; ++k)
         if (t1[k] != a && t1[k] != b) d = t1[k];
-      if (d == UINT32_MAX || c == d || exists(c, d)) continue;
+      if (d == UINT32_MAX || c == d) continue;
+      if (exists(c, d)) {
+        next_recheck[f0] = next_recheck[f1] = 1;
+        continue;
+      }
       bool consistent = false;  // f1 must run y -> x
       for (int k = 0; k < 3; ++k) consistent = consistent || (t1[k] == y && t1[(k + 1) % 3] == x);
       if (!consistent || !want(x, y, c, d)) continue;
@@ -92,8 +107,10 @@ size_t flip_pass(Mesh* mesh, Want want) {
       t1[0] = d, t1[1] = y, t1[2] = c;
       made.insert(std::upper_bound(made.begin(), made.end(), key2(c, d)), key2(c, d));  // no second c-d this pass
       touched[f0] = touched[f1] = 1;
+      next_recheck[f0] = next_recheck[f1] = 1;
       ++flips;
     }
+  recheck->swap(next_recheck);
   return flips;
 }
 
@@ -112,8 +129,9 @@ void delaunay_flips(Mesh* mesh) {
   };
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
   const double crease = kCreaseCos;
+  std::vector<char> recheck;
   for (int pass = 0; pass < 20; ++pass) {
-    const size_t flips = flip_pass(mesh, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    const size_t flips = flip_pass(mesh, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
       if (angle_at(c, x, y) + angle_at(d, y, x) <= M_PI + 1e-9) return false;
       const Vector3d n0 = normal(x, y, c), n1 = normal(y, x, d);
       if (n0.dot(n1) < crease) return false;
@@ -139,8 +157,9 @@ void restore_crease_edges(Mesh* mesh, const std::vector<char>& on_feature, const
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
   constexpr double kCos20 = 0.9396926207859084;
   auto along = [&](uint32_t v, const Vector3d& dir) { return std::abs(line[v].dot(dir)) >= kCos20; };
+  std::vector<char> recheck;
   for (int pass = 0; pass < 8; ++pass) {
-    const size_t flips = flip_pass(mesh, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    const size_t flips = flip_pass(mesh, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
       if (!on_feature[c] || !on_feature[d] || on_feature[x] || on_feature[y]) return false;
       const Vector3d dir = (p(d) - p(c)).normalized();
       const bool c_line = line[c].squaredNorm() > 0, d_line = line[d].squaredNorm() > 0;
@@ -173,8 +192,9 @@ size_t flip_caps(Mesh* mesh) {
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
   const double cap = 150 * M_PI / 180;
   size_t total = 0;
+  std::vector<char> recheck;
   for (int pass = 0; pass < 8; ++pass) {
-    const size_t flips = flip_pass(mesh, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    const size_t flips = flip_pass(mesh, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
       const bool c_cap = angle_at(c, x, y) > cap, d_cap = angle_at(d, y, x) > cap;
       if (c_cap == d_cap) return false;  // neither a cap, or both (their normals say nothing)
       const double before = std::min(smallest(x, y, c), smallest(y, x, d));
