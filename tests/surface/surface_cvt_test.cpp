@@ -332,6 +332,53 @@ TEST(SurfaceCvtTest, EnergyFallsEverySweepAndStopsOnItsTolerance) {
   EXPECT_NEAR(double(out.vertex_count()), 400.0, 8.0);  // +-2%
 }
 
+// A warm start (CvtOptions::start_label, a visual target's try below a
+// passing one): the cells of a run at 10% more are merged down to the count
+// and the sweeps go on. It must reach the count exactly, end at about the
+// energy a cold start reaches (lower or within 2%), in fewer sweeps, with
+// the same labels on any thread count; a start with fewer cells than the
+// count is ignored (the seeds as usual).
+TEST(SurfaceCvtTest, WarmStartFromMoreCellsMergesDownToTheCount) {
+  const Mesh sphere = testing::icosphere(4);  // 2,562 vertices
+  const MeshEdges edges = mesh_edges(sphere);
+  const std::vector<double> mass = vertex_areas(sphere);
+  CvtOptions options;
+  std::vector<uint32_t> more, cold, warm;
+  CvtStats more_stats, cold_stats, warm_stats;
+  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 330, options, &more, &more_stats).ok());
+  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 300, options, &cold, &cold_stats).ok());
+  CvtOptions from = options;
+  from.start_label = &more;
+  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 300, from, &warm, &warm_stats).ok());
+  EXPECT_EQ(warm_stats.clusters, 300u);
+  EXPECT_EQ(warm_stats.warm_merged, 30u);
+  EXPECT_EQ(*std::max_element(warm.begin(), warm.end()), 299u);
+  EXPECT_EQ(std::set<uint32_t>(warm.begin(), warm.end()).size(), 300u);  // no cell left empty
+  EXPECT_LT(warm_stats.sweeps, cold_stats.sweeps);
+  EXPECT_LT(warm_stats.energy.back(), 1.02 * cold_stats.energy.back())
+      << warm_stats.energy.back() / cold_stats.energy.back();
+  for (int threads : {1, 3}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<uint32_t> again;
+    CvtStats again_stats;
+    ASSERT_TRUE(surface_cvt(sphere, edges, mass, 300, from, &again, &again_stats).ok());
+    EXPECT_EQ(again, warm) << threads << " threads";
+  }
+  // Fewer cells than the count: a cold start.
+  CvtOptions fewer = options;
+  fewer.start_label = &cold;
+  std::vector<uint32_t> up;
+  CvtStats up_stats;
+  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 330, fewer, &up, &up_stats).ok());
+  EXPECT_EQ(up, more);
+  EXPECT_EQ(up_stats.warm_merged, 0u);
+  // Labels of another surface are refused.
+  std::vector<uint32_t> wrong(more.begin(), more.end() - 1);
+  CvtOptions bad = options;
+  bad.start_label = &wrong;
+  EXPECT_FALSE(surface_cvt(sphere, edges, mass, 300, bad, &up, &up_stats).ok());
+}
+
 TEST(SurfaceCvtTest, SeedsStartSpreadEvenly) {
   // The seeds are stratified by mass along a space-filling curve (surface_cvt.cpp):
   // the cells grown from them start near the converged energy (here 1.21

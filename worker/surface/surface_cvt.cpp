@@ -614,131 +614,148 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   std::vector<std::vector<uint32_t>> loops;
   boundary_loops(adj, &loop_of, &loops);
   std::vector<uint32_t> label(nv, UINT32_MAX);
-  std::vector<uint32_t> seeds;
-  for (const auto& loop : loops) {
-    const uint32_t p = part[loop[0]];
-    const size_t k = std::min<size_t>(options.min_per_loop, quota[p]);
-    if (k < options.min_per_loop) continue;  // the part's quota cannot keep it open
-    for (uint32_t v : spread_on_loop(adj, loop_of, loop, k)) {
-      label[v] = uint32_t(seeds.size());
-      seeds.push_back(v);
-      --quota[p];
-    }
-  }
-  // The rest: per part, stratified in proportion to mass. Along the part's
-  // elements in Morton order (morton_order.h) the mass accumulates to M; a
-  // seed goes where it crosses (u + k) M / q, k = 0 .. q - 1, one offset u
-  // per part (Philox keyed by the seed: the same on every machine and thread
-  // count). Each stretch of the curve holding M / q of the mass is a compact
-  // piece of the surface, so the seeds start spread evenly by mass, where
-  // independent draws clump and leave gaps. Against independent draws on
-  // the 15 shared models at two counts each (30 runs, 2026-11-27): the
-  // sweeps start at 14-21% lower energy and end lower in 27 of 30 runs
-  // (median -0.8%, from -4.6% to +0.7%), in 25% fewer sweeps (798 against
-  // 1,062), with 131 topology splits in all, not 222 (docs/quality.md).
-  const Aabb box = bounding_box(mesh);
-  const Vec3d lo{box.lo[0], box.lo[1], box.lo[2]};
-  const double extent = std::max({double(box.hi[0]) - lo.x, double(box.hi[1]) - lo.y, double(box.hi[2]) - lo.z});
-  auto weight = [&](uint32_t v) { return std::max(mass[v], 1e-300); };  // every element holds some of the curve
-  for (size_t p = 0; p < parts; ++p) {
-    if (quota[p] == 0) continue;
-    const std::vector<uint32_t> order = morton_order(x, part_elements[p], lo, extent);
-    double total = 0;
-    for (uint32_t v : order) total += weight(v);
-    const Philox4 r = random4(options.seed, p, 0);
-    const double offset = (double(r.v[0]) + double(r.v[1]) / 4294967296.0) / 4294967296.0;  // [0, 1)
-    const double step = total / quota[p];
-    double below = 0;  // mass of order[0 .. i)
-    size_t i = 0;
-    for (uint32_t k = 0; k < quota[p]; ++k) {
-      const double u = (offset + k) * step;
-      while (i + 1 < order.size() && below + weight(order[i]) <= u) below += weight(order[i++]);
-      // A taken element (a loop's seed, or a heavy element that holds
-      // several steps): the next free one along the curve (always exists:
-      // quota <= size).
-      size_t j = i;
-      while (label[order[j]] != UINT32_MAX) j = (j + 1) % order.size();
-      label[order[j]] = uint32_t(seeds.size());
-      seeds.push_back(order[j]);
-    }
-  }
-
-  // Grow the cells from the seeds over the edges to the nearest seed (graph
-  // distance on edge lengths), so every cell starts connected. In rounds, in
-  // parallel (Bellman-Ford on a moving front): each element next to one that
-  // improved last round takes its best neighbour's distance plus the edge,
-  // and its cell, if that is shorter; every round reads only the last one, so
-  // any thread count gives the same cells. At the end each element's cell is
-  // that of a neighbour nearer the same seed: the cells are connected.
-  {
-    std::vector<double> dist(nv, INFINITY);
-    for (uint32_t s : seeds) dist[s] = 0;
-    // The rounds' sets are the same on any thread count; the order in which
-    // threads list them is not, and nothing depends on it.
-    std::unique_ptr<std::atomic<uint32_t>[]> listed(new std::atomic<uint32_t>[nv]);
-    for (size_t v = 0; v < nv; ++v) listed[v].store(0, std::memory_order_relaxed);
-    std::vector<uint32_t> front = seeds, candidates;
-    std::vector<std::pair<double, uint32_t>> better;
-    tbb::enumerable_thread_specific<std::vector<uint32_t>> local;
-    auto gather = [&](std::vector<uint32_t>* out) {
-      out->clear();
-      for (auto& l : local) out->insert(out->end(), l.begin(), l.end()), l.clear();
-    };
-    // Two passes: first each cell takes only elements facing within 100
-    // degrees of its seed (kFacing), so that no cell starts round a thin part
-    // or over the rim of a thin plate; then, from where that stopped, the
-    // elements no cell could take (a part with a seed on one side only) go to
-    // the nearest cell whatever way they face, the first pass's cells settled.
-    std::vector<char> settled(nv, 0);
-    uint32_t round = 1;
-    auto grow = [&](bool facing) {
-      for (; !front.empty(); ++round) {
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, front.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
-          auto& out = local.local();
-          for (size_t i = r.begin(); i != r.end(); ++i)
-            for (const uint32_t* w = adj.begin(front[i]); w != adj.end(front[i]); ++w)
-              if (!settled[*w] && listed[*w].exchange(round, std::memory_order_relaxed) != round)
-                out.push_back(*w);
-        });
-        gather(&candidates);
-        better.resize(candidates.size());
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
-          for (size_t i = r.begin(); i != r.end(); ++i) {
-            const uint32_t v = candidates[i];
-            better[i] = {dist[v], UINT32_MAX};
-            for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
-              if (facing && label[*w] != UINT32_MAX &&
-                  dot(vertex_normal[v], vertex_normal[seeds[label[*w]]]) < kFacing)
-                continue;
-              const double nd = dist[*w] + norm(x[*w] - x[v]);
-              if (nd < better[i].first) better[i] = {nd, label[*w]};
-            }
-          }
-        });
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
-          auto& out = local.local();
-          for (size_t i = r.begin(); i != r.end(); ++i)
-            if (better[i].second != UINT32_MAX) {
-              dist[candidates[i]] = better[i].first;
-              label[candidates[i]] = better[i].second;
-              out.push_back(candidates[i]);
-            }
-        });
-        gather(&front);
-      }
-    };
-    grow(true);
-    front.clear();
+  // A warm start (CvtOptions::start_label) takes the earlier run's cells as
+  // they are; otherwise seeds, and cells grown from them.
+  uint32_t start_cells = 0;
+  if (options.start_label) {
+    if (options.start_label->size() != nv) return invalid_argument("surface CVT: one start label per element expected");
     for (uint32_t v = 0; v < nv; ++v) {
-      settled[v] = label[v] != UINT32_MAX;
-      if (settled[v] && std::any_of(adj.begin(v), adj.end(v), [&](uint32_t w) { return label[w] == UINT32_MAX; }))
-        front.push_back(v);
+      const uint32_t l = (*options.start_label)[v];
+      if (l != UINT32_MAX && (l >= nv || adj.degree(v) == 0))
+        return invalid_argument("surface CVT: the start labels are not of this surface");
+      if (l != UINT32_MAX) start_cells = std::max(start_cells, l + 1);
     }
-    grow(false);
+  }
+  const bool warm = start_cells >= count;
+  if (warm) {
+    label = *options.start_label;
+  } else {
+    std::vector<uint32_t> seeds;
+    for (const auto& loop : loops) {
+      const uint32_t p = part[loop[0]];
+      const size_t k = std::min<size_t>(options.min_per_loop, quota[p]);
+      if (k < options.min_per_loop) continue;  // the part's quota cannot keep it open
+      for (uint32_t v : spread_on_loop(adj, loop_of, loop, k)) {
+        label[v] = uint32_t(seeds.size());
+        seeds.push_back(v);
+        --quota[p];
+      }
+    }
+    // The rest: per part, stratified in proportion to mass. Along the part's
+    // elements in Morton order (morton_order.h) the mass accumulates to M; a
+    // seed goes where it crosses (u + k) M / q, k = 0 .. q - 1, one offset u
+    // per part (Philox keyed by the seed: the same on every machine and thread
+    // count). Each stretch of the curve holding M / q of the mass is a compact
+    // piece of the surface, so the seeds start spread evenly by mass, where
+    // independent draws clump and leave gaps. Against independent draws on
+    // the 15 shared models at two counts each (30 runs, 2026-11-27): the
+    // sweeps start at 14-21% lower energy and end lower in 27 of 30 runs
+    // (median -0.8%, from -4.6% to +0.7%), in 25% fewer sweeps (798 against
+    // 1,062), with 131 topology splits in all, not 222 (docs/quality.md).
+    const Aabb box = bounding_box(mesh);
+    const Vec3d lo{box.lo[0], box.lo[1], box.lo[2]};
+    const double extent = std::max({double(box.hi[0]) - lo.x, double(box.hi[1]) - lo.y, double(box.hi[2]) - lo.z});
+    auto weight = [&](uint32_t v) { return std::max(mass[v], 1e-300); };  // every element holds some of the curve
+    for (size_t p = 0; p < parts; ++p) {
+      if (quota[p] == 0) continue;
+      const std::vector<uint32_t> order = morton_order(x, part_elements[p], lo, extent);
+      double total = 0;
+      for (uint32_t v : order) total += weight(v);
+      const Philox4 r = random4(options.seed, p, 0);
+      const double offset = (double(r.v[0]) + double(r.v[1]) / 4294967296.0) / 4294967296.0;  // [0, 1)
+      const double step = total / quota[p];
+      double below = 0;  // mass of order[0 .. i)
+      size_t i = 0;
+      for (uint32_t k = 0; k < quota[p]; ++k) {
+        const double u = (offset + k) * step;
+        while (i + 1 < order.size() && below + weight(order[i]) <= u) below += weight(order[i++]);
+        // A taken element (a loop's seed, or a heavy element that holds
+        // several steps): the next free one along the curve (always exists:
+        // quota <= size).
+        size_t j = i;
+        while (label[order[j]] != UINT32_MAX) j = (j + 1) % order.size();
+        label[order[j]] = uint32_t(seeds.size());
+        seeds.push_back(order[j]);
+      }
+    }
+
+    // Grow the cells from the seeds over the edges to the nearest seed (graph
+    // distance on edge lengths), so every cell starts connected. In rounds, in
+    // parallel (Bellman-Ford on a moving front): each element next to one that
+    // improved last round takes its best neighbour's distance plus the edge,
+    // and its cell, if that is shorter; every round reads only the last one, so
+    // any thread count gives the same cells. At the end each element's cell is
+    // that of a neighbour nearer the same seed: the cells are connected.
+    {
+      std::vector<double> dist(nv, INFINITY);
+      for (uint32_t s : seeds) dist[s] = 0;
+      // The rounds' sets are the same on any thread count; the order in which
+      // threads list them is not, and nothing depends on it.
+      std::unique_ptr<std::atomic<uint32_t>[]> listed(new std::atomic<uint32_t>[nv]);
+      for (size_t v = 0; v < nv; ++v) listed[v].store(0, std::memory_order_relaxed);
+      std::vector<uint32_t> front = seeds, candidates;
+      std::vector<std::pair<double, uint32_t>> better;
+      tbb::enumerable_thread_specific<std::vector<uint32_t>> local;
+      auto gather = [&](std::vector<uint32_t>* out) {
+        out->clear();
+        for (auto& l : local) out->insert(out->end(), l.begin(), l.end()), l.clear();
+      };
+      // Two passes: first each cell takes only elements facing within 100
+      // degrees of its seed (kFacing), so that no cell starts round a thin part
+      // or over the rim of a thin plate; then, from where that stopped, the
+      // elements no cell could take (a part with a seed on one side only) go to
+      // the nearest cell whatever way they face, the first pass's cells settled.
+      std::vector<char> settled(nv, 0);
+      uint32_t round = 1;
+      auto grow = [&](bool facing) {
+        for (; !front.empty(); ++round) {
+          tbb::parallel_for(tbb::blocked_range<size_t>(0, front.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+            auto& out = local.local();
+            for (size_t i = r.begin(); i != r.end(); ++i)
+              for (const uint32_t* w = adj.begin(front[i]); w != adj.end(front[i]); ++w)
+                if (!settled[*w] && listed[*w].exchange(round, std::memory_order_relaxed) != round)
+                  out.push_back(*w);
+          });
+          gather(&candidates);
+          better.resize(candidates.size());
+          tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+              const uint32_t v = candidates[i];
+              better[i] = {dist[v], UINT32_MAX};
+              for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
+                if (facing && label[*w] != UINT32_MAX &&
+                    dot(vertex_normal[v], vertex_normal[seeds[label[*w]]]) < kFacing)
+                  continue;
+                const double nd = dist[*w] + norm(x[*w] - x[v]);
+                if (nd < better[i].first) better[i] = {nd, label[*w]};
+              }
+            }
+          });
+          tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
+            auto& out = local.local();
+            for (size_t i = r.begin(); i != r.end(); ++i)
+              if (better[i].second != UINT32_MAX) {
+                dist[candidates[i]] = better[i].first;
+                label[candidates[i]] = better[i].second;
+                out.push_back(candidates[i]);
+              }
+          });
+          gather(&front);
+        }
+      };
+      grow(true);
+      front.clear();
+      for (uint32_t v = 0; v < nv; ++v) {
+        settled[v] = label[v] != UINT32_MAX;
+        if (settled[v] && std::any_of(adj.begin(v), adj.end(v), [&](uint32_t w) { return label[w] == UINT32_MAX; }))
+          front.push_back(v);
+      }
+      grow(false);
+    }
   }
 
-  uint32_t clusters_now = count;
-  std::vector<Cluster> clusters(count);
+  uint32_t clusters_now = warm ? start_cells : count;
+  std::vector<Cluster> clusters(clusters_now);
   double constant = 0;  // sum m |x|^2
   for (uint32_t v = 0; v < nv; ++v) {
     if (label[v] == UINT32_MAX) continue;
@@ -759,7 +776,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   auto loop_key = [](uint32_t cluster, uint32_t loop) { return uint64_t(cluster) << 32 | loop; };
   // loops_of_cluster: how many loops each cluster meets (one at most, or two
   // loops would join at its dual vertex).
-  std::vector<uint32_t> loops_of_cluster(count, 0);
+  std::vector<uint32_t> loops_of_cluster(clusters_now, 0);
   auto loop_add = [&](uint32_t v, uint32_t cluster) {
     if (loop_of[v] == UINT32_MAX) return;
     if (on_loop[loop_key(cluster, loop_of[v])]++ == 0) ++loop_clusters[loop_of[v]], ++loops_of_cluster[cluster];
@@ -823,7 +840,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   // Only pairs of cells one of which changed since the pair was last looked
   // at can gain: a pair whose two cells did not change in the previous sweep
   // (nor yet in this one) gave no move then and gives none now.
-  std::vector<char> active(count, 1), changed(count, 0);
+  std::vector<char> active(clusters_now, 1), changed(clusters_now, 0);
   // The sweeps in parallel, with the same bits on any thread count. The
   // elements are cut into slabs along the longest axis (equal counts; how
   // many depends on the target, never on the threads). A sweep visits the
@@ -940,7 +957,6 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       }
     }
   };
-  optimize();
 
   // Topology: the dual is a manifold where every cell's link (the cells
   // around it, in the dual's triangles) is one path or cycle and no two
@@ -1055,6 +1071,79 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     rebuild();
     merged += taken;
   };
+  // A warm start's surplus cells, merged away in rounds: each round takes
+  // the pairs of neighbouring cells whose merge raises E least (Ward's
+  // criterion: m_a m_b / (m_a + m_b) |c_a - c_b|^2, c the centroid in R^6),
+  // cheapest first, no cell in two merges, none on a boundary loop and
+  // none in a part left with 2 min_per_part cells or fewer; a pair merges
+  // whole (b's elements join a). Ties go by the cells' ids: one result on
+  // any thread count.
+  size_t warm_merged = 0;
+  auto merge_cheapest = [&](uint32_t surplus) {
+    while (surplus > 0) {
+      std::vector<uint32_t> part_of(clusters_now, UINT32_MAX);
+      std::vector<char> on_a_loop(clusters_now, 0);
+      std::vector<uint64_t> pairs;  // a < b
+      for (uint32_t v = 0; v < nv; ++v) {
+        const uint32_t a = label[v];
+        if (a == UINT32_MAX) continue;
+        part_of[a] = part[v];
+        on_a_loop[a] |= loop_of[v] != UINT32_MAX;
+        for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
+          if (label[*w] > a && label[*w] != UINT32_MAX) pairs.push_back(uint64_t(a) << 32 | label[*w]);
+      }
+      tbb::parallel_sort(pairs.begin(), pairs.end());
+      pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+      std::vector<std::pair<double, uint64_t>> cost(pairs.size());
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, pairs.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          const Cluster &a = clusters[pairs[i] >> 32], &b = clusters[uint32_t(pairs[i])];
+          double c = INFINITY;
+          if (a.m > 0 && b.m > 0) {
+            const Vec3d ds = a.s * (1.0 / a.m) - b.s * (1.0 / b.m), dt = a.t * (1.0 / a.m) - b.t * (1.0 / b.m);
+            c = a.m * b.m / (a.m + b.m) * (dot(ds, ds) + dot(dt, dt));
+          }
+          cost[i] = {c, pairs[i]};
+        }
+      });
+      tbb::parallel_sort(cost.begin(), cost.end());
+      std::vector<uint32_t> per_part(parts, 0);
+      for (uint32_t c = 0; c < clusters_now; ++c)
+        if (part_of[c] != UINT32_MAX) ++per_part[part_of[c]];
+      std::vector<char> used(clusters_now, 0);
+      std::vector<uint32_t> into(clusters_now, UINT32_MAX);  // b -> a
+      uint32_t taken = 0;
+      for (const auto& [c, pair] : cost) {
+        if (taken == surplus) break;
+        const uint32_t a = uint32_t(pair >> 32), b = uint32_t(pair);
+        if (!std::isfinite(c) || used[a] || used[b] || on_a_loop[a] || on_a_loop[b] || part_of[a] != part_of[b] ||
+            part_of[a] == UINT32_MAX || per_part[part_of[a]] <= 2 * options.min_per_part)
+          continue;
+        used[a] = used[b] = 1;
+        into[b] = a;
+        --per_part[part_of[a]];
+        ++taken;
+      }
+      if (taken == 0) break;  // nothing may merge: more cells than count remain
+      std::vector<uint32_t> remap(clusters_now, UINT32_MAX);
+      uint32_t next = 0;
+      for (uint32_t c = 0; c < clusters_now; ++c)
+        if (into[c] == UINT32_MAX) remap[c] = next++;
+      for (uint32_t c = 0; c < clusters_now; ++c)
+        if (into[c] != UINT32_MAX) remap[c] = remap[into[c]];
+      clusters_now = next;
+      for (uint32_t& l : label)
+        if (l != UINT32_MAX) l = remap[l];
+      rebuild();
+      surplus -= taken;
+      warm_merged += taken;
+    }
+    guarded.assign(clusters_now, 0);
+    energy.push_back(total_energy(clusters, constant));
+  };
+  if (warm && clusters_now > count) merge_cheapest(clusters_now - count);
+  optimize();
+
   // The defective cells of the labels as they end, when the last round
   // counted them and changed nothing after (else counted again below).
   size_t defective_at_end = SIZE_MAX;
@@ -1149,6 +1238,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     stats->clusters = clusters_now;
     stats->cells_split = splits;
     stats->cells_merged = merged;
+    stats->warm_merged = warm_merged;
     stats->defective_cells = defective_at_end != SIZE_MAX ? defective_at_end
                                                           : defective_cells(mesh, adj, label, clusters_now).size();
   }

@@ -74,6 +74,13 @@ struct CvtOptions {
   // cells stretch along the directions in which the normal turns least. 0:
   // the isotropic CVT.
   double anisotropy = 0;
+  // A warm start instead of seeds: the labels of an earlier run on this
+  // surface with at least `count` cells (a visual target's try at a larger
+  // count: pipeline.cpp). Its surplus cells are merged away, the cheapest
+  // merges in E first, and the sweeps and the topology step go on from
+  // there: a few sweeps where a cold start takes a dozen. Fewer cells than
+  // count, or null: the seeds as usual.
+  const std::vector<uint32_t>* start_label = nullptr;
 };
 
 struct CvtStats {
@@ -87,6 +94,7 @@ struct CvtStats {
   size_t cells_split = 0;         // cells split for the dual's topology
   size_t cells_merged = 0;        // cells merged away to make up for the splits
   size_t defective_cells = 0;     // cells whose dual vertex is still non-manifold
+  size_t warm_merged = 0;         // a warm start's cells merged away to reach count
 };
 
 // label: per element, its cluster in [0, stats->clusters), at least count
