@@ -14,10 +14,13 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
                   "the views and the field are computed once for all");
   cmd->add_option("--tries-ahead", values.tries_ahead,
                   "A visual target's search makes its next try after a pass beside the one it runs: auto (with 8 "
-                  "or more threads), on, both (the next tries after a pass and after a failure) or off (the same "
-                  "outcome every way)")
+                  "or more threads, with --cold-tries), on, both (the next tries after a pass and after a failure) or "
+                  "off (the same outcome every way); on and both start every try cold")
       ->check(CLI::IsMember({"auto", "on", "both", "off"}))
       ->capture_default_str();
+  cmd->add_flag("--cold-tries", values.cold_tries,
+                "A visual target's tries below a passing one start from scratch instead of from its surface and cells "
+                "(slower; for measuring)");
   cmd->add_flag("--levels-one-at-a-time", values.levels_one_at_a_time,
                 "Run a --lod chain's levels one after another instead of side by side (the same meshes; for "
                 "measuring)");
@@ -101,6 +104,7 @@ Status apply_pipeline_flags(const PipelineFlagValues& values, PipelineOptions* o
   o->views.pca_align = !values.no_pca;
   o->attention.image_cue = values.image_cue;
   o->levels_side_by_side = !values.levels_one_at_a_time;
+  o->visual_target_warm = !values.cold_tries;
   o->visual_target_ahead = values.tries_ahead == "on"     ? 1
                            : values.tries_ahead == "both" ? 2
                            : values.tries_ahead == "off"  ? 0

@@ -21,6 +21,7 @@ struct PipelineFlagValues {
   std::string lod;
   bool levels_one_at_a_time = false;  // --levels-one-at-a-time
   std::string tries_ahead = "auto";    // --tries-ahead auto|on|both|off
+  bool cold_tries = false;             // --cold-tries
   double min_ssim = 0;
   uint32_t screen_px = 0;
 };

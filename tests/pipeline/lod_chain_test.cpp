@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <memory>
 #include <cmath>
 #include <cstdio>
 #include <set>
@@ -12,6 +13,8 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <tbb/global_control.h>
 
 #include "eval/visual_similarity.h"
 #include "io/mesh_io.h"
@@ -223,6 +226,7 @@ TEST(LodChain, VisualTargetTriesMadeAheadGiveTheSameOutcome) {
   auto run = [&](int ahead, std::vector<std::string>* events) {
     PipelineOptions o = small_views();
     o.visual_target_ahead = ahead;
+    o.visual_target_warm = false;  // every try cold, made ahead or not
     // The level's stages with their notes (counts, sweeps, scores); the front
     // half's by name (a note there may hold a wait in ms).
     o.on_stage = [events](const StageTiming& t) {
@@ -260,6 +264,69 @@ TEST(LodChain, VisualTargetTriesMadeAheadGiveTheSameOutcome) {
   EXPECT_EQ(both.target, without.target);
   EXPECT_EQ(both.mesh.positions, without.mesh.positions);
   EXPECT_GT(both.search.made_ahead, both.search.tries) << both_events.back();
+}
+
+// A visual target's tries below a passing one (within 15%) start from its
+// surface and cells (PipelineOptions::visual_target_warm): the CVT's note
+// says from which try and how many cells merged, the warm try runs fewer
+// sweeps than the cold try at the same count, the level keeps the bound,
+// and the outcome is the same bit for bit on another run and on one thread.
+TEST(LodChain, VisualTargetTriesBelowAPassStartWarm) {
+  const Mesh mesh = bumpy_sphere();
+  LevelTarget visual;
+  visual.min_ssim = 0.95;
+  struct Try {
+    uint32_t from = 0, merged = 0;
+    int sweeps = 0;
+  };
+  auto run = [&](bool warm, int threads, std::vector<Try>* tries) {
+    PipelineOptions o = small_views();
+    o.visual_target_warm = warm;
+    o.visual_target_ahead = 0;
+    o.on_stage = [tries](const StageTiming& t) {
+      if (t.name != "cvt") return;
+      Try x;
+      unsigned from = 0, merged = 0;
+      if (std::sscanf(t.note.c_str(), "from the cells of the try at %u vertices, %u merged; %d sweeps", &from, &merged,
+                      &x.sweeps) == 3) {
+        x.from = from, x.merged = merged;
+      } else {
+        EXPECT_EQ(std::sscanf(t.note.c_str(), "%d sweeps", &x.sweeps), 1) << t.note;
+      }
+      tries->push_back(x);
+    };
+    std::unique_ptr<tbb::global_control> limit;
+    if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+    const std::vector<PipelineResult> found = run_levels(mesh, o, {visual});
+    EXPECT_EQ(found.size(), 1u);
+    return found.empty() ? PipelineResult() : found[0];
+  };
+  std::vector<Try> warm_tries, again_tries, one_tries;
+  const PipelineResult warm = run(true, 0, &warm_tries);
+  ASSERT_GE(warm.search.ssim, visual.min_ssim);
+  EXPECT_EQ(warm.mesh.vertex_count(), size_t(warm.target));
+  size_t started_warm = 0;
+  for (const Try& t : warm_tries) {
+    if (t.from == 0) continue;
+    ++started_warm;
+    const uint32_t n = t.from - t.merged;  // every surplus cell merged on this sphere
+    EXPECT_LE(double(t.from), 1.15 * n + 1) << "a source more than 15% above the try";
+    // The same count from scratch.
+    PipelineOptions o = small_views();
+    std::vector<StageTiming> stages;
+    const std::vector<PipelineResult> cold = run_levels(mesh, o, {count(n)}, &stages);
+    ASSERT_EQ(cold.size(), 1u);
+    EXPECT_LT(t.sweeps, cold[0].cvt.sweeps) << "a warm try at " << n;
+  }
+  EXPECT_GE(started_warm, 1u) << "no try started warm";
+  const PipelineResult again = run(true, 0, &again_tries);
+  const PipelineResult one = run(true, 1, &one_tries);
+  for (const PipelineResult* r : {&again, &one}) {
+    EXPECT_EQ(r->target, warm.target);
+    EXPECT_EQ(r->search.tries, warm.search.tries);
+    EXPECT_EQ(r->mesh.positions, warm.mesh.positions);
+    EXPECT_EQ(r->mesh.indices, warm.mesh.indices);
+  }
 }
 
 // Levels side by side (the default for count levels) give the bits one at a

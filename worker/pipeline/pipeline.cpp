@@ -545,9 +545,33 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   return Status::Ok();
 }
 
+// The surface CVT's refined surface with its density (the density stage's
+// work), shared by a visual target's tries that start warm.
+struct SurfaceData {
+  RefinedSurface refined;  // its values smoothed
+  std::vector<double> area, mass;  // per surface element
+};
+
+// A try's surface and CVT cells, from which a later try at a smaller count
+// starts its CVT (CvtOptions::start_label).
+struct WarmStart {
+  uint32_t count = 0;
+  std::shared_ptr<const SurfaceData> surface;
+  std::vector<uint32_t> label;
+};
+
+// A back half's warm start: from (null: a cold start) and keep (null: not
+// kept; else set to this back half's surface and cells when it ran the
+// surface CVT).
+struct BackHalfWarm {
+  const WarmStart* from = nullptr;
+  std::shared_ptr<WarmStart>* keep = nullptr;
+};
+
 // Stages 5-7 for one level (options.target_vertices), from the front half.
 // The result's mesh is left in the normalized frame (finish_output moves it).
-Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level, PipelineResult* out) {
+Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level, PipelineResult* out,
+                     const BackHalfWarm& warm = {}) {
   const Mesh& input = front.input;
   const JobDevice& device = *front.device;
   const std::string cpu = "cpu";
@@ -569,13 +593,25 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
   // Stages 5-7 on the input surface: a converged CVT with the chosen density,
   // then its dual. Polygon soups (no usable connectivity) go on below.
   if (options.density != DensityMode::kPaper) {
-    RefinedSurface refined;
-    std::vector<double> area, mass;  // per surface element
+    // A warm start's surface is its source's; else made here.
+    std::shared_ptr<SurfaceData> made;
+    std::shared_ptr<const SurfaceData> data;
     bool soup = false;
     std::string note;
+    if (warm.from) {
+      data = warm.from->surface;
+      note = "the surface and density of the try at " + std::to_string(warm.from->count) + " vertices (a warm start)";
+    } else {
+      made = std::make_shared<SurfaceData>();
+      data = made;
+    }
     VPR_RETURN_IF_ERROR(stage.run(
         "density", cpu,
         [&]() -> Status {
+          if (!made) return Status::Ok();
+          RefinedSurface& refined = made->refined;
+          std::vector<double>& area = made->area;
+          std::vector<double>& mass = made->mass;
           const std::vector<float> d =
               vertex_density(front.curvature, result.input_importance, options.density, options.attention_boost);
           std::vector<float> channels(2 * input.vertex_count());
@@ -626,6 +662,8 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
         },
         &note));
     if (!soup) {
+      const RefinedSurface& refined = data->refined;
+      const std::vector<double>& area = data->area;
       // The surface's parts and their shapes (the part fallback's reference)
       // depend on the surface alone: made on their own thread while the CVT,
       // whose serial steps leave cores idle, runs.
@@ -636,15 +674,22 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       cvt.seed = options.sampling.seed;
       cvt.anisotropy = options.anisotropy;         // the input has a unit diagonal here
       cvt.joined_elements = refined.pinch_copies;  // parts split at a pinch share one equal share
+      if (warm.from) cvt.start_label = &warm.from->label;
       VPR_RETURN_IF_ERROR(stage.run(
           "cvt", cpu,
           [&]() -> Status {
-            VPR_RETURN_IF_ERROR(
-                surface_cvt(refined.mesh, refined.edges, mass, options.target_vertices, cvt, &label, &result.cvt));
+            VPR_RETURN_IF_ERROR(surface_cvt(refined.mesh, refined.edges, data->mass, options.target_vertices, cvt,
+                                            &label, &result.cvt));
             const auto& e = result.cvt.energy;
-            char text[160];
-            std::snprintf(text, sizeof text, "%d sweeps%s, energy %.4g -> %.4g", result.cvt.sweeps,
-                          result.cvt.converged ? " (converged)" : " (sweep limit)", e.front(), e.back());
+            char text[200];
+            if (warm.from)
+              std::snprintf(text, sizeof text, "from the cells of the try at %u vertices, %zu merged; ", warm.from->count,
+                            result.cvt.warm_merged);
+            else
+              text[0] = 0;
+            std::snprintf(text + std::strlen(text), sizeof text - std::strlen(text), "%d sweeps%s, energy %.4g -> %.4g",
+                          result.cvt.sweeps, result.cvt.converged ? " (converged)" : " (sweep limit)", e.front(),
+                          e.back());
             note = text;
             if (result.cvt.parts_below_minimum > 0)
               note += "; " + std::to_string(result.cvt.parts_below_minimum) + " of " +
@@ -708,6 +753,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           },
           &note));
       result.back_half = std::string("surface CVT (") + density_mode_name(options.density) + " density)";
+      if (warm.keep) *warm.keep = std::make_shared<WarmStart>(WarmStart{options.target_vertices, data, std::move(label)});
       return Status::Ok();
     }
   }
@@ -810,11 +856,12 @@ PipelineOptions with_locked_callbacks(const PipelineOptions& options, std::mutex
 
 // One level's back half at `count` vertices: its result, the front half's
 // shared part first (level_result).
-Status back_half_at(FrontHalf& front, const PipelineOptions& options, int level, uint32_t count, PipelineResult* out) {
+Status back_half_at(FrontHalf& front, const PipelineOptions& options, int level, uint32_t count, PipelineResult* out,
+                    const BackHalfWarm& warm = {}) {
   PipelineOptions o = options;
   o.target_vertices = count;
   *out = level_result(front, level, count);
-  return run_back_half(front, o, level, out);
+  return run_back_half(front, o, level, out, warm);
 }
 
 // A back half made ahead for a visual target's search (run_visual_target).
@@ -857,9 +904,22 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   // is in, the tries made ahead that the search does not ask for next are
   // cancelled at their next stage. The callbacks are called under one lock.
   // (vpremesh-visual-replay --ahead replays this on measured curves.)
-  const bool ahead_on = options.density != DensityMode::kPaper &&
-                        (options.visual_target_ahead > 0 ||
-                         (options.visual_target_ahead < 0 && tbb::this_task_arena::max_concurrency() >= 8));
+  const bool ahead_on =
+      options.density != DensityMode::kPaper &&
+      (options.visual_target_ahead > 0 || (options.visual_target_ahead < 0 && !options.visual_target_warm &&
+                                           tbb::this_task_arena::max_concurrency() >= 8));
+  // Warm starts (PipelineOptions::visual_target_warm): once a try has
+  // passed, a try below it by at most kWarmRange takes the smallest passing
+  // try's refined surface and density, and starts its CVT from that try's
+  // cells, the surplus merged away (CvtOptions::start_label): near the bound,
+  // where the search spends most, a try then costs the merges, a few sweeps
+  // and the dual instead of a whole back half. A try's outcome then depends
+  // on the tries before it, so none is made ahead (the tries ahead would
+  // change which try starts from which). The elements per cell rise by the
+  // range at most (16 per output vertex at the source's count).
+  constexpr double kWarmRange = 1.15;
+  const bool warm_on = options.visual_target_warm && options.density != DensityMode::kPaper && !ahead_on;
+  std::shared_ptr<WarmStart> source;  // the smallest passing try's, when warm_on
   // Near the bound a failing score lies about this far below it (SSIM moves
   // by about 0.001 between counts 1% apart there).
   constexpr double kFailingMargin = 0.0005;
@@ -911,6 +971,13 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
       }
     }
     PipelineResult attempt;
+    std::shared_ptr<WarmStart> kept;
+    BackHalfWarm warm;
+    if (warm_on) {
+      warm.keep = &kept;
+      if (source && count < source->count && double(count) * kWarmRange >= double(source->count))
+        warm.from = source.get();
+    }
     if (made) {
       ++taken;
       made->done.wait();
@@ -919,7 +986,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
       for (const StageTiming& t : made->held)
         if (live.on_stage) live.on_stage(t);
     } else {
-      VPR_RETURN_IF_ERROR(back_half_at(front, live, level, count, &attempt));
+      VPR_RETURN_IF_ERROR(back_half_at(front, live, level, count, &attempt, warm));
     }
     const auto start = Clock::now();
     VPR_ASSIGN_OR_RETURN(const VisualSimilarity similarity, reference.compare(attempt.mesh));
@@ -928,6 +995,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     attempt.stages.push_back({"visual_target", ms_since(start), "cpu", note, level});
     if (live.on_stage) live.on_stage(attempt.stages.back());
     const bool passes = similarity.ssim_mean >= min_ssim;
+    if (passes && kept && (!source || count < source->count)) source = std::move(kept);
     const bool better = !best || (passes && (!best_passed || count < best->target)) ||
                         (!passes && !best_passed && count > best->target);
     if (better) {

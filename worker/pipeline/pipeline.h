@@ -120,10 +120,14 @@ struct PipelineOptions {
   bool levels_side_by_side = true;
   // A visual target's search makes its next try after a pass ahead, beside
   // the try it runs (the same outcome; run_visual_target): -1 where the
-  // machine has 8 or more threads, 0 never, 1 always; 2 also the next try
-  // after a failure (measured on the H100 machine: no faster than 1, more
-  // work; docs/benchmarks.md).
+  // machine has 8 or more threads and warm starts are off, 0 never, 1 always
+  // (warm starts then off); 2 also the next try after a failure (measured on
+  // the H100 machine: no faster than 1, more work; docs/benchmarks.md).
   int visual_target_ahead = -1;
+  // A visual target's tries below a passing one (within 15%) start from its
+  // surface and CVT cells instead of from scratch (run_visual_target): a few
+  // sweeps instead of a dozen. -1 above then makes no try ahead.
+  bool visual_target_warm = true;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
   // Called as each stage ends, e.g. to stream progress; the StageTiming is
