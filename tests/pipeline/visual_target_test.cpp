@@ -3,9 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace vpr {
 namespace {
@@ -47,6 +50,45 @@ TEST(VisualTarget, LandsWithinTwoPercentOfTheSmallestPassingCountInFewTries) {
       for (const VisualTry& t : found->tries) cost += t.count;
       EXPECT_LE(cost, 4.5 * best) << name << ": " << found->tries.size() << " tries";
     }
+}
+
+// Passes that walk down near the bound (the score flat just above it, as
+// where a try starts warm from the pass above it) leave the bracket's low
+// end far below, so it stops halving; its middle would be a try far below
+// the answer that cannot end the search. With the model pointing at the
+// smallest pass, the search tries the closing count instead (igea at 0.97:
+// 2,099 and 20,747 failed, 43,503 and 42,650 passed; the middle was 29,747).
+TEST(VisualTarget, ClosesFromAbovePassesNearTheBoundInsteadOfBisectingFarBelow) {
+  // igea's scores at 0.97 (warm tries near the bound), joined by straight
+  // lines in log n against log(1 - SSIM).
+  const std::vector<std::pair<double, double>> knots = {{2099, 0.70643},  {20747, 0.92749}, {41814, 0.96981},
+                                                        {42650, 0.97004}, {43503, 0.97021}, {50651, 0.97534},
+                                                        {134345, 0.995}};
+  auto score = [&](uint32_t count) -> StatusOr<double> {
+    const double n = std::clamp(double(count), knots.front().first, knots.back().first);
+    size_t k = 1;
+    while (k + 1 < knots.size() && knots[k].first < n) ++k;
+    const auto [n0, s0] = knots[k - 1];
+    const auto [n1, s1] = knots[k];
+    const double t = std::log(n / n0) / std::log(n1 / n0);
+    return 1.0 - std::exp((1 - t) * std::log(1 - s0) + t * std::log(1 - s1));
+  };
+  VisualTargetOptions o;
+  o.min_ssim = 0.97;
+  o.highest = 134345;  // igea's vertices
+  auto found = search_visual_target(o, score);
+  ASSERT_TRUE(found.ok()) << found.status().to_string();
+  std::string tries;
+  for (const VisualTry& t : found->tries) tries += std::to_string(t.count) + " " + std::to_string(t.ssim) + "\n";
+  EXPECT_TRUE(found->reached);
+  EXPECT_GT(found->count, 41814u) << tries;  // 41,814 fails
+  EXPECT_LE(found->count, 42700u) << tries;
+  bool passed = false;
+  for (const VisualTry& t : found->tries) {
+    if (passed) EXPECT_GT(t.count, 40000u) << "a try far below the answer after a pass\n" << tries;
+    passed = passed || t.ssim >= o.min_ssim;
+  }
+  EXPECT_EQ(found->tries.size(), 6u) << tries;
 }
 
 // Measured curves are not one power law: 1 - SSIM falls about as n^-0.65 from

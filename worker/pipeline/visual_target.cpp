@@ -124,8 +124,20 @@ void VisualSearch::record(uint32_t count, double s) {
   const double opening = lo + std::log1p(o_.tolerance) - 1e-9;
   const bool close_from_below = passed_ > 0 && failed_ > 0 && tries_.back().ssim < o_.min_ssim &&
                                 log_next > lo && log_next <= opening;
+  // A bracket that has not halved in two tries is bisected, unless the
+  // model, fitted near the bound, puts the answer within twice the
+  // tolerance below the smallest pass: then the closing try from above.
+  // (Passes that walk down from a pass by the tolerance leave the bracket's
+  // far low end where it was; its middle would be a try far below the
+  // answer that cannot end the search, where the closing try ends it if it
+  // fails.)
+  const bool model_at_pass = passed_ > 0 && trust_short && log_next > lo && log_next >= hi - 2 * std::log1p(o_.tolerance);
   if (passed_ > 0 && failed_ > 0 && (stalled_ >= 2 || log_next <= lo)) {
-    log_next = 0.5 * (lo + hi);
+    if (stalled_ >= 2 && model_at_pass) {
+      log_next = closing;
+    } else {
+      log_next = 0.5 * (lo + hi);
+    }
     stalled_ = 0;
   }
   uint32_t n = uint32_t(std::lround(std::exp(log_next)));
