@@ -2,12 +2,11 @@
 #include "core/collect_in_order.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cstdint>
 #include <utility>
 #include <vector>
-
-#include <tbb/task_arena.h>
 
 namespace vpr {
 namespace {

@@ -9,11 +9,11 @@
 // every core.
 #pragma once
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cstddef>
 #include <vector>
-
-#include <tbb/parallel_for.h>
 
 namespace vpr {
 
@@ -28,7 +28,8 @@ std::vector<T> collect_in_order(size_t n, Emit&& emit, size_t block = 16384) {
   std::vector<size_t> start(blocks + 1, 0);
   for (size_t b = 0; b < blocks; ++b) start[b + 1] = start[b] + part[b].size();
   std::vector<T> out(start[blocks]);
-  tbb::parallel_for(size_t(0), blocks, [&](size_t b) { std::copy(part[b].begin(), part[b].end(), out.begin() + start[b]); });
+  tbb::parallel_for(size_t(0), blocks,
+                    [&](size_t b) { std::copy(part[b].begin(), part[b].end(), out.begin() + start[b]); });
   return out;
 }
 
