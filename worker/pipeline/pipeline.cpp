@@ -681,16 +681,12 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             VPR_RETURN_IF_ERROR(surface_cvt(refined.mesh, refined.edges, data->mass, options.target_vertices, cvt,
                                             &label, &result.cvt));
             const auto& e = result.cvt.energy;
-            char text[200];
-            if (warm.from)
-              std::snprintf(text, sizeof text, "from the cells of the try at %u vertices, %zu merged; ", warm.from->count,
-                            result.cvt.warm_merged);
-            else
-              text[0] = 0;
-            std::snprintf(text + std::strlen(text), sizeof text - std::strlen(text), "%d sweeps%s, energy %.4g -> %.4g",
-                          result.cvt.sweeps, result.cvt.converged ? " (converged)" : " (sweep limit)", e.front(),
-                          e.back());
-            note = text;
+            char text[160];
+            std::snprintf(text, sizeof text, "%d sweeps%s, energy %.4g -> %.4g", result.cvt.sweeps,
+                          result.cvt.converged ? " (converged)" : " (sweep limit)", e.front(), e.back());
+            note = warm.from ? "from the cells of the try at " + std::to_string(warm.from->count) + " vertices, " +
+                                   std::to_string(result.cvt.warm_merged) + " merged; " + text
+                             : std::string(text);
             if (result.cvt.parts_below_minimum > 0)
               note += "; " + std::to_string(result.cvt.parts_below_minimum) + " of " +
                       std::to_string(result.cvt.parts) + " parts got fewer than " + std::to_string(cvt.min_per_part) +

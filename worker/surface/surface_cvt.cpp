@@ -987,42 +987,78 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   };
   // Cells split, and their neighbours, are never merged away.
   std::vector<char> guarded(clusters_now, 0);
+  // What both merges read of the cells: each one's part and normal sum
+  // (sum m n), whether it meets a boundary loop, how many cells each part
+  // has, and every pair of neighbouring cells, both ways, sorted.
+  struct CellGraph {
+    std::vector<Vec3d> normal_sum;
+    std::vector<uint32_t> part_of, per_part;
+    std::vector<char> on_a_loop;
+    std::vector<uint64_t> pairs;  // a << 32 | b
+  };
+  auto cell_graph = [&]() {
+    CellGraph g;
+    g.normal_sum.assign(clusters_now, Vec3d{0, 0, 0});
+    g.part_of.assign(clusters_now, UINT32_MAX);
+    g.on_a_loop.assign(clusters_now, 0);
+    for (uint32_t v = 0; v < nv; ++v) {
+      const uint32_t a = label[v];
+      if (a == UINT32_MAX) continue;
+      g.normal_sum[a] = g.normal_sum[a] + vertex_normal[v] * mass[v];
+      g.part_of[a] = part[v];
+      g.on_a_loop[a] |= loop_of[v] != UINT32_MAX;
+      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
+        if (label[*w] != a && label[*w] != UINT32_MAX) g.pairs.push_back(uint64_t(a) << 32 | label[*w]);
+    }
+    tbb::parallel_sort(g.pairs.begin(), g.pairs.end());
+    g.pairs.erase(std::unique(g.pairs.begin(), g.pairs.end()), g.pairs.end());
+    g.per_part.assign(parts, 0);
+    for (uint32_t c = 0; c < clusters_now; ++c)
+      if (g.part_of[c] != UINT32_MAX) ++g.per_part[g.part_of[c]];
+    return g;
+  };
+  // Cells `gone` leave (their elements have joined other cells, or join
+  // into[c] now when `into` is given); the ids close up in order, `guarded`
+  // follows, and the cells' sums and loop counts are rebuilt.
+  auto close_up = [&](const std::vector<char>& gone, const std::vector<uint32_t>& into) {
+    std::vector<uint32_t> remap(clusters_now, UINT32_MAX);
+    uint32_t next = 0;
+    for (uint32_t c = 0; c < clusters_now; ++c)
+      if (!gone[c]) {
+        guarded[next] = guarded[c];
+        remap[c] = next++;
+      }
+    if (!into.empty())
+      for (uint32_t c = 0; c < clusters_now; ++c)
+        if (gone[c]) remap[c] = remap[into[c]];
+    clusters_now = next;
+    guarded.resize(clusters_now);
+    for (uint32_t& l : label)
+      if (l != UINT32_MAX) l = remap[l];
+    rebuild();
+  };
   // Splits add cells; to keep the count, as many others are merged into their
   // neighbours: the flattest (their elements' normals agree best: far from
   // thin parts and creases, where a merge costs least), each away from any
   // split, from boundary loops and from each other, in parts with cells to
   // spare.
   auto merge = [&](uint32_t surplus) {
-    std::vector<Vec3d> normal_sum(clusters_now, Vec3d{0, 0, 0});  // sum m n per cell
-    std::vector<uint32_t> part_of(clusters_now, UINT32_MAX);
-    std::vector<char> on_a_loop(clusters_now, 0);
-    std::vector<uint64_t> pairs;
-    for (uint32_t v = 0; v < nv; ++v) {
-      const uint32_t a = label[v];
-      if (a == UINT32_MAX) continue;
-      normal_sum[a] = normal_sum[a] + vertex_normal[v] * mass[v];
-      part_of[a] = part[v];
-      on_a_loop[a] |= loop_of[v] != UINT32_MAX;
-      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
-        if (label[*w] != a && label[*w] != UINT32_MAX) pairs.push_back(uint64_t(a) << 32 | label[*w]);
-    }
-    tbb::parallel_sort(pairs.begin(), pairs.end());
-    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    CellGraph g = cell_graph();
+    const std::vector<uint64_t>& pairs = g.pairs;
+    const std::vector<uint32_t>& part_of = g.part_of;
+    std::vector<uint32_t>& per_part = g.per_part;
     std::vector<char> blocked(guarded.begin(), guarded.end());
     for (uint64_t e : pairs)
       if (guarded[e >> 32]) blocked[uint32_t(e)] = 1;
-    std::vector<uint32_t> per_part(parts, 0);
-    for (uint32_t c = 0; c < clusters_now; ++c)
-      if (part_of[c] != UINT32_MAX) ++per_part[part_of[c]];
     std::vector<uint32_t> order(clusters_now);
     std::iota(order.begin(), order.end(), 0u);
-    auto spread = [&](uint32_t c) { return clusters[c].m > 0 ? 1.0 - norm(normal_sum[c]) / clusters[c].m : 1.0; };
+    auto spread = [&](uint32_t c) { return clusters[c].m > 0 ? 1.0 - norm(g.normal_sum[c]) / clusters[c].m : 1.0; };
     std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return spread(a) < spread(b); });
     std::vector<char> removed(clusters_now, 0);
     uint32_t taken = 0;
     for (uint32_t c : order) {
       if (taken == surplus) break;
-      if (blocked[c] || on_a_loop[c] || part_of[c] == UINT32_MAX || per_part[part_of[c]] <= 2 * options.min_per_part)
+      if (blocked[c] || g.on_a_loop[c] || part_of[c] == UINT32_MAX || per_part[part_of[c]] <= 2 * options.min_per_part)
         continue;
       removed[c] = 1;
       --per_part[part_of[c]];
@@ -1056,19 +1092,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
         }
       }
     }
-    // Ids close up; the cells' sums and loop counts are rebuilt.
-    std::vector<uint32_t> remap(clusters_now, UINT32_MAX);
-    uint32_t next = 0;
-    for (uint32_t c = 0; c < clusters_now; ++c)
-      if (!removed[c]) {
-        guarded[next] = guarded[c];
-        remap[c] = next++;
-      }
-    clusters_now = next;
-    guarded.resize(clusters_now);
-    for (uint32_t& l : label)
-      if (l != UINT32_MAX) l = remap[l];
-    rebuild();
+    close_up(removed, {});
     merged += taken;
   };
   // A warm start's surplus cells, merged away in rounds: each round takes
@@ -1081,19 +1105,12 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   size_t warm_merged = 0;
   auto merge_cheapest = [&](uint32_t surplus) {
     while (surplus > 0) {
-      std::vector<uint32_t> part_of(clusters_now, UINT32_MAX);
-      std::vector<char> on_a_loop(clusters_now, 0);
+      CellGraph g = cell_graph();
+      const std::vector<uint32_t>& part_of = g.part_of;
+      std::vector<uint32_t>& per_part = g.per_part;
       std::vector<uint64_t> pairs;  // a < b
-      for (uint32_t v = 0; v < nv; ++v) {
-        const uint32_t a = label[v];
-        if (a == UINT32_MAX) continue;
-        part_of[a] = part[v];
-        on_a_loop[a] |= loop_of[v] != UINT32_MAX;
-        for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
-          if (label[*w] > a && label[*w] != UINT32_MAX) pairs.push_back(uint64_t(a) << 32 | label[*w]);
-      }
-      tbb::parallel_sort(pairs.begin(), pairs.end());
-      pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+      for (uint64_t e : g.pairs)
+        if ((e >> 32) < uint32_t(e)) pairs.push_back(e);
       std::vector<std::pair<double, uint64_t>> cost(pairs.size());
       tbb::parallel_for(tbb::blocked_range<size_t>(0, pairs.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -1107,38 +1124,25 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
         }
       });
       tbb::parallel_sort(cost.begin(), cost.end());
-      std::vector<uint32_t> per_part(parts, 0);
-      for (uint32_t c = 0; c < clusters_now; ++c)
-        if (part_of[c] != UINT32_MAX) ++per_part[part_of[c]];
-      std::vector<char> used(clusters_now, 0);
+      std::vector<char> used(clusters_now, 0), gone(clusters_now, 0);
       std::vector<uint32_t> into(clusters_now, UINT32_MAX);  // b -> a
       uint32_t taken = 0;
       for (const auto& [c, pair] : cost) {
         if (taken == surplus) break;
         const uint32_t a = uint32_t(pair >> 32), b = uint32_t(pair);
-        if (!std::isfinite(c) || used[a] || used[b] || on_a_loop[a] || on_a_loop[b] || part_of[a] != part_of[b] ||
+        if (!std::isfinite(c) || used[a] || used[b] || g.on_a_loop[a] || g.on_a_loop[b] || part_of[a] != part_of[b] ||
             part_of[a] == UINT32_MAX || per_part[part_of[a]] <= 2 * options.min_per_part)
           continue;
-        used[a] = used[b] = 1;
+        used[a] = used[b] = gone[b] = 1;
         into[b] = a;
         --per_part[part_of[a]];
         ++taken;
       }
       if (taken == 0) break;  // nothing may merge: more cells than count remain
-      std::vector<uint32_t> remap(clusters_now, UINT32_MAX);
-      uint32_t next = 0;
-      for (uint32_t c = 0; c < clusters_now; ++c)
-        if (into[c] == UINT32_MAX) remap[c] = next++;
-      for (uint32_t c = 0; c < clusters_now; ++c)
-        if (into[c] != UINT32_MAX) remap[c] = remap[into[c]];
-      clusters_now = next;
-      for (uint32_t& l : label)
-        if (l != UINT32_MAX) l = remap[l];
-      rebuild();
+      close_up(gone, into);
       surplus -= taken;
       warm_merged += taken;
     }
-    guarded.assign(clusters_now, 0);
     energy.push_back(total_energy(clusters, constant));
   };
   if (warm && clusters_now > count) merge_cheapest(clusters_now - count);
