@@ -1,24 +1,25 @@
 #include "surface/surface_cvt.h"
 
-#include <algorithm>
-#include <array>
-#include <atomic>
-#include <cstdint>
-#include <memory>
-#include <cmath>
-#include <numeric>
-#include <queue>
-#include <string>
-#include <unordered_map>
-
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <numeric>
+#include <queue>
+#include <string>
+#include <unordered_map>
+
 #include "core/collect_in_order.h"
 #include "core/rng.h"
 #include "core/vec3.h"
+#include "surface/cvt_sweep_kernels.h"
 #include "surface/morton_order.h"
 
 namespace vpr {
@@ -30,7 +31,7 @@ namespace {
 // thin part or the rim of a thin plate, and its dual vertex cannot stand for
 // both sides. 100 rather than 90 degrees, so that a cell may still cover a
 // right-angled crease or a cube's corner.
-constexpr double kFacing = -0.17364817766693033;  // cos 100 degrees
+constexpr double kFacing = kCvtFacing;  // cos 100 degrees
 
 // Vertex adjacency in compressed rows, neighbours sorted; faces[i]: how
 // many faces the edge to neighbor[i] has (1: a boundary edge).
@@ -52,38 +53,9 @@ double total_energy(const std::vector<Cluster>& clusters, double constant) {
   return e;
 }
 
-// How many groups v's neighbours in cluster `c` form, joined by the edges
-// among v's neighbours (64 or more neighbours in c: reported as 2, which
-// forbids the move). Taking v out of c keeps c connected when this is 1;
-// putting v into c keeps c a disk (no ring closes around a hole or a limb)
-// when this is 1. A local test, conservative on a manifold: with both, a
-// move is a simple-point move of digital topology.
+// How many groups v's neighbours in cluster `c` form (cvt_sweep_kernels.h).
 size_t neighbour_groups(const Adjacency& adj, const std::vector<uint32_t>& label, uint32_t v, uint32_t c) {
-  uint32_t ring[64];
-  size_t n = 0;
-  for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
-    if (label[*w] == c) {
-      if (n == 64) return 2;
-      ring[n++] = *w;
-    }
-  if (n <= 1) return n;
-  uint32_t parent[64];
-  std::iota(parent, parent + n, 0u);
-  auto find = [&](uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  size_t groups = n;
-  for (size_t i = 0; i < n; ++i)
-    for (size_t j = i + 1; j < n; ++j)
-      if (adj.adjacent(ring[i], ring[j])) {
-        const uint32_t a = find(uint32_t(i)), b = find(uint32_t(j));
-        if (a != b) {
-          parent[a] = b;
-          --groups;
-        }
-      }
-  return groups;
+  return cvt_neighbour_groups(adj.offset.data(), adj.neighbor.data(), label.data(), v, c);
 }
 
 // Boundary loops of the surface: per vertex, the loop of boundary edges
@@ -902,7 +874,55 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     }
     return done;
   };
-  auto optimize = [&]() {
+  // The cells' sums and loop counts from the labels.
+  auto rebuild = [&]() {
+    clusters.assign(clusters_now, Cluster{});
+    on_loop.clear();
+    std::fill(loop_clusters.begin(), loop_clusters.end(), 0);
+    loops_of_cluster.assign(clusters_now, 0);
+    constant = 0;
+    for (uint32_t v = 0; v < nv; ++v) {
+      if (label[v] == UINT32_MAX) continue;
+      Cluster& c = clusters[label[v]];
+      c.m += mass[v];
+      c.s = c.s + x[v] * mass[v];
+      c.t = c.t + y[v] * mass[v];
+      c.n = c.n + vertex_normal[v] * mass[v];
+      ++c.size;
+      constant += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
+      loop_add(v, label[v]);
+    }
+  };
+  // The colour sweeps first when a twin is given (cvt_sweeps.h: the GPU's):
+  // the bulk of the moves, the loops' elements only along their loops; the
+  // sweeps below finish from there with every rule. The rounds go on to a
+  // quarter of the tolerance, a few more of their cheap sweeps, so that the
+  // sweeps here find little left: on igea, horse and fish one sweep instead
+  // of 2-4 (bunny, with holes, 4 either way). They have a budget of their
+  // own (max_sweeps a call), not counted against the sweeps here.
+  size_t device_sweeps = 0;
+  std::vector<char> on_a_loop(nv);
+  for (uint32_t v = 0; v < nv; ++v) on_a_loop[v] = loop_of[v] != UINT32_MAX;
+  auto optimize = [&]() -> Status {
+    if (options.device_sweeps) {
+      CvtSweepInput in;
+      in.edges = &adj;
+      in.x = x.data();
+      in.y = y.data();
+      in.normal = vertex_normal.data();
+      in.mass = mass.data();
+      in.on_loop = on_a_loop.data();
+      in.cells = clusters_now;
+      in.constant = constant;
+      in.tolerance = options.tolerance / 4;
+      in.max_sweeps = options.max_sweeps;
+      CvtSweepOutput out;
+      VPR_RETURN_IF_ERROR(options.device_sweeps(in, &label, &out));
+      device_sweeps += size_t(out.sweeps);
+      moves += out.moves;
+      energy.insert(energy.end(), out.energy.begin(), out.energy.end());
+      rebuild();
+    }
     converged = false;
     active.assign(clusters_now, 1);
     changed.assign(clusters_now, 0);
@@ -956,6 +976,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
         break;
       }
     }
+    return Status::Ok();
   };
 
   // Topology: the dual is a manifold where every cell's link (the cells
@@ -967,24 +988,6 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   size_t merged = 0;
   const uint32_t split_budget = uint32_t(std::ceil(options.max_split_fraction * count));
   size_t splits = 0;
-  auto rebuild = [&]() {
-    clusters.assign(clusters_now, Cluster{});
-    on_loop.clear();
-    std::fill(loop_clusters.begin(), loop_clusters.end(), 0);
-    loops_of_cluster.assign(clusters_now, 0);
-    constant = 0;
-    for (uint32_t v = 0; v < nv; ++v) {
-      if (label[v] == UINT32_MAX) continue;
-      Cluster& c = clusters[label[v]];
-      c.m += mass[v];
-      c.s = c.s + x[v] * mass[v];
-      c.t = c.t + y[v] * mass[v];
-      c.n = c.n + vertex_normal[v] * mass[v];
-      ++c.size;
-      constant += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
-      loop_add(v, label[v]);
-    }
-  };
   // Cells split, and their neighbours, are never merged away.
   std::vector<char> guarded(clusters_now, 0);
   // What both merges read of the cells: each one's part and normal sum
@@ -1146,7 +1149,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     energy.push_back(total_energy(clusters, constant));
   };
   if (warm && clusters_now > count) merge_cheapest(clusters_now - count);
-  optimize();
+  VPR_RETURN_IF_ERROR(optimize());
 
   // The defective cells of the labels as they end, when the last round
   // counted them and changed nothing after (else counted again below).
@@ -1231,11 +1234,11 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     guarded.resize(clusters_now, 1);
     if (clusters_now > count) merge(clusters_now - count);
     energy.push_back(total_energy(clusters, constant));
-    optimize();
+    VPR_RETURN_IF_ERROR(optimize());
   }
 
   if (stats) {
-    stats->sweeps = sweep;
+    stats->sweeps = sweep + int(device_sweeps);
     stats->converged = converged;
     stats->energy = std::move(energy);
     stats->moves = moves;
@@ -1243,6 +1246,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     stats->cells_split = splits;
     stats->cells_merged = merged;
     stats->warm_merged = warm_merged;
+    stats->device_sweeps = device_sweeps;
     stats->defective_cells = defective_at_end != SIZE_MAX ? defective_at_end
                                                           : defective_cells(mesh, adj, label, clusters_now).size();
   }

@@ -31,6 +31,7 @@
 
 #include "core/mesh.h"
 #include "core/status.h"
+#include "surface/cvt_sweeps.h"
 #include "surface/mesh_edges.h"
 
 namespace vpr {
@@ -81,10 +82,15 @@ struct CvtOptions {
   // there: a few sweeps where a cold start takes a dozen. Fewer cells than
   // count, or null: the seeds as usual.
   const std::vector<uint32_t>* start_label = nullptr;
+  // Sweeps in colour rounds to run before each run of the sweeps (cvt_sweeps.h;
+  // the pipeline passes the GPU twin), to a quarter of `tolerance` and with
+  // max_sweeps of their own: they make the bulk of the moves, and the sweeps
+  // finish from where they stop. Empty: the sweeps alone.
+  CvtDeviceSweeps device_sweeps;
 };
 
 struct CvtStats {
-  int sweeps = 0;
+  int sweeps = 0;  // device_sweeps among them
   bool converged = false;
   std::vector<double> energy;  // E after initialization, then after each sweep
   size_t moves = 0;
@@ -95,6 +101,7 @@ struct CvtStats {
   size_t cells_merged = 0;        // cells merged away to make up for the splits
   size_t defective_cells = 0;     // cells whose dual vertex is still non-manifold
   size_t warm_merged = 0;         // a warm start's cells merged away to reach count
+  size_t device_sweeps = 0;       // of `sweeps`, those in colour rounds (CvtOptions::device_sweeps)
 };
 
 // label: per element, its cluster in [0, stats->clusters), at least count
