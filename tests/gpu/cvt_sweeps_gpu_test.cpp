@@ -1,0 +1,109 @@
+// The CVT's colour sweeps on the GPU (cvt_sweeps.cu) against their CPU
+// reference (cvt_sweeps.cpp): the same labels and energies, bit for bit, on
+// every call surface_cvt makes on a real scan with the pipeline's anisotropy
+// and on a surface with an opening; a tiny device budget is RESOURCE_EXHAUSTED
+// with nothing left charged. Skipped where there is no CUDA device.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "gpu/cuda_device.h"
+#include "io/mesh_io.h"
+#include "surface/cvt_sweeps.h"
+#include "surface/surface_cvt.h"
+#include "test_meshes.h"
+
+namespace vpr {
+namespace {
+
+class CvtSweepsGpu : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string why;
+    if (cuda_devices(&why).empty()) GTEST_SKIP() << why;
+    ASSERT_TRUE(init_cuda_device(0).ok());
+    auto stream = CudaStream::create(0);
+    ASSERT_TRUE(stream.ok()) << stream.status().to_string();
+    stream_ = std::move(stream).value();
+    gpu_.device = Device::kCuda;
+    gpu_.stream = stream_.get();
+  }
+
+  // surface_cvt with the GPU's rounds, each call checked against the CPU
+  // reference on the same input; returns the calls compared.
+  int run_and_compare(const Mesh& mesh, uint32_t count, double anisotropy, CvtStats* stats) {
+    const MeshEdges edges = mesh_edges(mesh);
+    const std::vector<double> mass = vertex_areas(mesh);
+    CvtOptions options;
+    options.anisotropy = anisotropy;
+    int calls = 0;
+    options.device_sweeps = [&](const CvtSweepInput& in, std::vector<uint32_t>* label, CvtSweepOutput* out) {
+      ++calls;
+      std::vector<uint32_t> reference = *label;
+      CvtSweepOutput reference_out;
+      EXPECT_TRUE(cpu::cvt_colour_sweeps(in, &reference, &reference_out).ok());
+      const Status s = cuda::cvt_colour_sweeps(in, label, out, gpu_);
+      EXPECT_TRUE(s.ok()) << s.to_string();
+      EXPECT_EQ(*label, reference) << "call " << calls;
+      EXPECT_EQ(out->energy, reference_out.energy) << "call " << calls;
+      EXPECT_EQ(out->colours, reference_out.colours);
+      EXPECT_EQ(out->moves, reference_out.moves);
+      return s;
+    };
+    std::vector<uint32_t> label;
+    EXPECT_TRUE(surface_cvt(mesh, edges, mass, count, options, &label, stats).ok());
+    return calls;
+  }
+
+  CudaStream stream_;
+  ExecContext gpu_;
+};
+
+TEST_F(CvtSweepsGpu, SameLabelsAsTheCpuReferenceOnAScan) {
+  auto bunny = read_mesh("../shared/models/bunny.obj");
+  ASSERT_TRUE(bunny.ok()) << bunny.status().to_string();
+  CvtStats stats;
+  EXPECT_GE(run_and_compare(*bunny, 2000, 0.004, &stats), 1);
+  EXPECT_GT(stats.device_sweeps, 2u);
+  EXPECT_EQ(stats.clusters, 2000u);
+}
+
+TEST_F(CvtSweepsGpu, SameLabelsAsTheCpuReferenceWithAnOpening) {
+  const Mesh sphere = testing::icosphere(5);
+  Mesh open;
+  open.positions = sphere.positions;
+  for (size_t f = 0; f < sphere.face_count(); ++f) {
+    double z = 0;
+    for (int k = 0; k < 3; ++k) z += sphere.positions[3 * sphere.indices[3 * f + k] + 2] / 3.0;
+    if (z < 0.6) open.indices.insert(open.indices.end(), &sphere.indices[3 * f], &sphere.indices[3 * f + 3]);
+  }
+  CvtStats stats;
+  EXPECT_GE(run_and_compare(open, 300, 0.08, &stats), 1);
+  EXPECT_GT(stats.device_sweeps, 2u);
+  EXPECT_EQ(stats.defective_cells, 0u);
+}
+
+TEST_F(CvtSweepsGpu, ATinyBudgetIsResourceExhaustedAndReleasesEverything) {
+  const Mesh sphere = testing::icosphere(4);
+  const MeshEdges edges = mesh_edges(sphere);
+  const std::vector<double> mass = vertex_areas(sphere);
+  DeviceBudget tiny;
+  tiny.limit = 4096;
+  ExecContext ctx = gpu_;
+  ctx.budget = &tiny;
+  CvtOptions options;
+  options.device_sweeps = [&](const CvtSweepInput& in, std::vector<uint32_t>* label, CvtSweepOutput* out) {
+    return cuda::cvt_colour_sweeps(in, label, out, ctx);
+  };
+  std::vector<uint32_t> label;
+  CvtStats stats;
+  const Status s = surface_cvt(sphere, edges, mass, 200, options, &label, &stats);
+  EXPECT_EQ(s.code(), StatusCode::kResourceExhausted) << s.to_string();
+  EXPECT_EQ(tiny.used.load(), 0u);
+}
+
+}  // namespace
+}  // namespace vpr

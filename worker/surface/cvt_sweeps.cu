@@ -1,0 +1,199 @@
+// GPU twin of the CVT's colour sweeps (cvt_sweeps.h): one thread an element,
+// the arithmetic of cvt_sweep_kernels.h, the cells' fixed-point sums kept
+// with integer atomics (exact and order-free), and E summed by one block in
+// the CPU reference's order, so the labels are the reference's bit for bit.
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "gpu/cuda_check.h"
+#include "gpu/device_buffer.h"
+#include "surface/cvt_sweep_kernels.h"
+#include "surface/cvt_sweeps.h"
+#include "surface/cvt_sweeps_setup.h"
+
+namespace vpr::cuda {
+namespace {
+
+struct Elements {
+  const uint32_t* offset;
+  const uint32_t* neighbor;
+  const uint32_t* faces;
+  const Vec3d* x;
+  const Vec3d* y;
+  const Vec3d* normal;
+  const double* mass;
+  const char* on_loop;
+  uint32_t n;
+};
+
+__global__ void colour_round_kernel(Elements e, uint8_t* colour, uint32_t* round_of, uint32_t round, uint32_t* coloured,
+                                    uint32_t* colours) {
+  const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= e.n || round_of[v] != 0xFFFFFFFFu) return;
+  const uint8_t c = cvt_colour_in_round(e.offset, e.neighbor, colour, round_of, round, v);
+  if (c == kUncoloured) return;
+  colour[v] = c;
+  round_of[v] = round;
+  atomicAdd(coloured, 1u);
+  if (c < 64) atomicMax(colours, uint32_t(c) + 1);
+}
+
+__device__ void add_sums(unsigned long long* cell, const long long* c, bool subtract) {
+  for (int k = 0; k < kCvtSums; ++k)
+    atomicAdd(cell + k, static_cast<unsigned long long>(subtract ? -c[k] : c[k]));  // two's complement: exact
+}
+
+__global__ void initial_sums_kernel(Elements e, CvtFixedScale scale, const uint32_t* label, unsigned long long* sums,
+                                    uint32_t* size) {
+  const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= e.n || label[v] == kNoCell) return;
+  long long c[kCvtSums];
+  cvt_contribution(e.mass[v], e.x[v], e.y[v], e.normal[v], scale, c);
+  add_sums(sums + size_t(label[v]) * kCvtSums, c, false);
+  atomicAdd(size + label[v], 1u);
+}
+
+__global__ void decide_kernel(Elements e, CvtFixedScale scale, const uint8_t* colour, uint8_t k, const uint32_t* label,
+                              const unsigned long long* sums, const uint32_t* size, double threshold, uint32_t* move) {
+  const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= e.n) return;
+  move[v] = kNoCell;
+  if (colour[v] != k) return;
+  long long c[kCvtSums];
+  cvt_contribution(e.mass[v], e.x[v], e.y[v], e.normal[v], scale, c);
+  move[v] = cvt_best_move(e.offset, e.neighbor, e.faces, label, reinterpret_cast<const long long*>(sums), size, scale,
+                          cvt_sums(c, scale), e.normal[v], e.on_loop[v] != 0, v, threshold);
+}
+
+__global__ void apply_kernel(Elements e, CvtFixedScale scale, const uint32_t* move, uint32_t* label,
+                             unsigned long long* sums, uint32_t* size, unsigned long long* moved) {
+  const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= e.n || move[v] == kNoCell) return;
+  long long c[kCvtSums];
+  cvt_contribution(e.mass[v], e.x[v], e.y[v], e.normal[v], scale, c);
+  add_sums(sums + size_t(label[v]) * kCvtSums, c, true);
+  add_sums(sums + size_t(move[v]) * kCvtSums, c, false);
+  atomicSub(size + label[v], 1u);
+  atomicAdd(size + move[v], 1u);
+  label[v] = move[v];
+  atomicAdd(moved, 1ull);
+}
+
+// One block of kCvtEnergyLanes threads: lane t sums cells t, t + lanes, ...
+// in order, then the lanes halve pairwise (the CPU reference's order).
+__global__ void energy_kernel(const unsigned long long* sums, uint32_t cells, CvtFixedScale scale, double constant,
+                              double* energy) {
+  __shared__ double lane[kCvtEnergyLanes];
+  const uint32_t t = threadIdx.x;
+  double sum = 0;
+  for (uint32_t c = t; c < cells; c += kCvtEnergyLanes)
+    sum += cvt_cell_energy(cvt_sums(reinterpret_cast<const long long*>(sums) + size_t(c) * kCvtSums, scale));
+  lane[t] = sum;
+  __syncthreads();
+  for (uint32_t half = kCvtEnergyLanes / 2; half > 0; half /= 2) {
+    if (t < half) lane[t] += lane[t + half];
+    __syncthreads();
+  }
+  if (t == 0) *energy = constant + lane[0];
+}
+
+}  // namespace
+
+Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_io, CvtSweepOutput* out,
+                         const ExecContext& ctx) {
+  VPR_RETURN_IF_ERROR(check_cvt_sweep_input(in, *label_io));
+  *out = CvtSweepOutput{};
+  const MeshEdges& adj = *in.edges;
+  const uint32_t nv = uint32_t(adj.vertex_count());
+  if (nv == 0 || in.cells == 0) return Status::Ok();
+  std::vector<uint32_t>& label = *label_io;
+  const CvtFixedScale scale = cvt_fixed_scale(in, label);
+  const cudaStream_t stream = stream_of(ctx);
+
+  DeviceBuffer<uint32_t> d_offset, d_neighbor, d_faces, d_label, d_round, d_move, d_size, d_counters;
+  DeviceBuffer<Vec3d> d_x, d_y, d_normal;
+  DeviceBuffer<double> d_mass, d_energy;
+  DeviceBuffer<char> d_on_loop;
+  DeviceBuffer<uint8_t> d_colour;
+  DeviceBuffer<unsigned long long> d_sums, d_moved;
+  VPR_RETURN_IF_ERROR(d_offset.upload(adj.offset.data(), adj.offset.size(), ctx));
+  VPR_RETURN_IF_ERROR(d_neighbor.upload(adj.neighbor.data(), std::max<size_t>(adj.neighbor.size(), 1), ctx));
+  VPR_RETURN_IF_ERROR(d_faces.upload(adj.faces.data(), std::max<size_t>(adj.faces.size(), 1), ctx));
+  VPR_RETURN_IF_ERROR(d_x.upload(in.x, nv, ctx));
+  VPR_RETURN_IF_ERROR(d_y.upload(in.y, nv, ctx));
+  VPR_RETURN_IF_ERROR(d_normal.upload(in.normal, nv, ctx));
+  VPR_RETURN_IF_ERROR(d_mass.upload(in.mass, nv, ctx));
+  VPR_RETURN_IF_ERROR(d_on_loop.upload(in.on_loop, nv, ctx));
+  VPR_RETURN_IF_ERROR(d_label.upload(label.data(), nv, ctx));
+  VPR_RETURN_IF_ERROR(d_round.allocate(nv, ctx));
+  VPR_RETURN_IF_ERROR(d_move.allocate(nv, ctx));
+  VPR_RETURN_IF_ERROR(d_colour.allocate(nv, ctx));
+  VPR_RETURN_IF_ERROR(d_size.allocate(in.cells, ctx));
+  VPR_RETURN_IF_ERROR(d_sums.allocate(size_t(in.cells) * kCvtSums, ctx));
+  VPR_RETURN_IF_ERROR(d_counters.allocate(2, ctx));  // elements coloured, colours
+  VPR_RETURN_IF_ERROR(d_moved.allocate(1, ctx));
+  VPR_RETURN_IF_ERROR(d_energy.allocate(1, ctx));
+  VPR_CUDA_TRY(cudaMemsetAsync(d_round.get(), 0xFF, nv * sizeof(uint32_t), stream));
+  VPR_CUDA_TRY(cudaMemsetAsync(d_colour.get(), kUncoloured, nv, stream));
+  VPR_RETURN_IF_ERROR(d_size.zero());
+  VPR_RETURN_IF_ERROR(d_sums.zero());
+  VPR_RETURN_IF_ERROR(d_counters.zero());
+  const Elements e{d_offset.get(), d_neighbor.get(), d_faces.get(),   d_x.get(), d_y.get(),
+                   d_normal.get(), d_mass.get(),     d_on_loop.get(), nv};
+  const unsigned blocks = blocks_for(nv);
+
+  // Colours: a round a launch; the count of coloured elements read back each round.
+  uint32_t counters[2] = {0, 0};
+  for (uint32_t round = 0; counters[0] < nv; ++round) {
+    if (round >= kCvtMaxColourRounds) return internal_error("CVT colour sweeps: colouring did not finish");
+    colour_round_kernel<<<blocks, kBlock, 0, stream>>>(e, d_colour.get(), d_round.get(), round, d_counters.get(),
+                                                       d_counters.get() + 1);
+    VPR_CUDA_LAUNCHED("colour_round_kernel");
+    VPR_RETURN_IF_ERROR(d_counters.download(counters, 2));
+    VPR_CUDA_TRY(cudaStreamSynchronize(stream));
+  }
+  const uint32_t colours = counters[1];
+  out->colours = colours;
+
+  initial_sums_kernel<<<blocks, kBlock, 0, stream>>>(e, scale, d_label.get(), d_sums.get(), d_size.get());
+  VPR_CUDA_LAUNCHED("initial_sums_kernel");
+  auto energy = [&](double* value) -> Status {
+    energy_kernel<<<1, kCvtEnergyLanes, 0, stream>>>(d_sums.get(), in.cells, scale, in.constant, d_energy.get());
+    VPR_CUDA_LAUNCHED("energy_kernel");
+    return d_energy.download(value, 1);
+  };
+  double previous = 0;
+  VPR_RETURN_IF_ERROR(energy(&previous));
+  VPR_CUDA_TRY(cudaStreamSynchronize(stream));
+  for (int sweep = 0; sweep < in.max_sweeps; ++sweep) {
+    const double threshold = 1e-18 * std::abs(previous);
+    VPR_RETURN_IF_ERROR(d_moved.zero());
+    for (uint32_t k = 0; k < colours; ++k) {
+      decide_kernel<<<blocks, kBlock, 0, stream>>>(e, scale, d_colour.get(), uint8_t(k), d_label.get(), d_sums.get(),
+                                                   d_size.get(), threshold, d_move.get());
+      VPR_CUDA_LAUNCHED("decide_kernel");
+      apply_kernel<<<blocks, kBlock, 0, stream>>>(e, scale, d_move.get(), d_label.get(), d_sums.get(), d_size.get(),
+                                                  d_moved.get());
+      VPR_CUDA_LAUNCHED("apply_kernel");
+    }
+    double now = 0;
+    unsigned long long moved = 0;
+    VPR_RETURN_IF_ERROR(energy(&now));
+    VPR_RETURN_IF_ERROR(d_moved.download(&moved, 1));
+    VPR_CUDA_TRY(cudaStreamSynchronize(stream));
+    out->energy.push_back(now);
+    out->moves += moved;
+    ++out->sweeps;
+    if (moved == 0 || previous - now <= in.tolerance * std::abs(previous)) {
+      out->converged = true;
+      break;
+    }
+    previous = now;
+  }
+  VPR_RETURN_IF_ERROR(d_label.download(label.data(), nv));
+  VPR_CUDA_TRY(cudaStreamSynchronize(stream));
+  return Status::Ok();
+}
+
+}  // namespace vpr::cuda
