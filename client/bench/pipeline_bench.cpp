@@ -9,7 +9,7 @@
 //   3. with --concurrency C: throughput of C jobs at once against one at a time.
 // MODEL may end in @1M (or @<N>M): the model midpoint-subdivided to at least
 // N million triangles. Prints Markdown tables; progress goes to stderr.
-//   vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]
+//   vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE] [--cvt-on-cpu]
 //                  [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...
 // --density: the jobs' density mode (uniform, curvature, perception, paper;
 // the pipeline's default when not given).
@@ -49,6 +49,7 @@ struct Args {
   int repeat = 3, threads = 0, concurrency = 0, jobs = 0;
   std::string peers = "all";
   std::optional<vpr::DensityMode> density;
+  bool cvt_on_cpu = false;  // PipelineOptions::cvt_sweeps_on_gpu off
   std::vector<std::pair<std::string, uint32_t>> inputs;
 };
 
@@ -67,8 +68,7 @@ struct JobTimes {
   size_t out_vertices = 0;
 };
 
-vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::Renderer* renderer,
-                                 std::optional<vpr::DensityMode> density) {
+vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::Renderer* renderer, const Args& args) {
   JobTimes t;
   const auto start = Clock::now();
   auto mesh = vpr::parse_mesh(in.draco.data(), in.draco.size(), vpr::MeshFormat::kDraco);
@@ -78,7 +78,8 @@ vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::
   options.target_vertices = in.target;
   options.device = device;
   options.shared_renderer = renderer;
-  if (density) options.density = *density;
+  if (args.density) options.density = *args.density;
+  options.cvt_sweeps_on_gpu = !args.cvt_on_cpu;
   auto result = vpr::run_pipeline(*mesh, options);
   if (!result.ok()) return result.status();
   const auto encode_start = Clock::now();
@@ -119,6 +120,8 @@ int parse_args(int argc, char** argv, Args* a) {
         return 2;
       }
       a->density = *mode;
+    } else if (s == "--cvt-on-cpu") {
+      a->cvt_on_cpu = true;
     } else if (s == "--peers") {
       a->peers = next();
     } else if (s == "--concurrency") {
@@ -170,9 +173,10 @@ double median(std::vector<double> v) {
 int main(int argc, char** argv) {
   Args args;
   if (parse_args(argc, argv, &args) != 0) {
-    std::fprintf(stderr,
-                 "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]\n"
-                 "                      [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
+    std::fprintf(
+        stderr,
+        "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE] [--cvt-on-cpu]\n"
+        "                      [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
     return 2;
   }
   std::unique_ptr<tbb::global_control> limit;
@@ -208,14 +212,14 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < inputs.size(); ++i) {
     const Input& in = inputs[i];
     for (vpr::DevicePolicy device : args.devices) {
-      auto warm = run_job(in, device, renderer->get(), args.density);
+      auto warm = run_job(in, device, renderer->get(), args);
       if (!warm.ok()) {
         std::fprintf(stderr, "%s on %s: %s\n", in.name.c_str(), device_label(device), warm.status().to_string().c_str());
         continue;
       }
       std::vector<JobTimes> runs;
       for (int r = 0; r < args.repeat; ++r) {
-        auto t = run_job(in, device, renderer->get(), args.density);
+        auto t = run_job(in, device, renderer->get(), args);
         if (t.ok()) runs.push_back(std::move(t).value());
       }
       if (runs.empty()) continue;
@@ -274,14 +278,15 @@ int main(int argc, char** argv) {
         for (int c : {1, args.concurrency}) {
           std::vector<std::unique_ptr<vpr::Renderer>> renderers;
           for (int i = 0; i < c; ++i) renderers.push_back(std::move(vpr::create_renderer(vpr::RendererKind::kAuto)).value());
-          for (int i = 0; i < c; ++i) (void)run_job(in, device, renderers[i].get(), args.density);  // warm each thread's renderer
+          for (int i = 0; i < c; ++i)
+            (void)run_job(in, device, renderers[i].get(), args);  // warm each thread's renderer
           std::atomic<int> next{0}, failed{0};
           const auto start = Clock::now();
           std::vector<std::thread> pool;
           for (int i = 0; i < c; ++i)
             pool.emplace_back([&, i] {
               while (next.fetch_add(1) < jobs)
-                if (!run_job(in, device, renderers[i].get(), args.density).ok()) ++failed;
+                if (!run_job(in, device, renderers[i].get(), args).ok()) ++failed;
             });
           for (auto& t : pool) t.join();
           const double wall = ms_since(start) / 1000.0;

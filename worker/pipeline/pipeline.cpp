@@ -675,30 +675,46 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       cvt.anisotropy = options.anisotropy;         // the input has a unit diagonal here
       cvt.joined_elements = refined.pinch_copies;  // parts split at a pinch share one equal share
       if (warm.from) cvt.start_label = &warm.from->label;
-      VPR_RETURN_IF_ERROR(stage.run(
-          "cvt", cpu,
-          [&]() -> Status {
-            VPR_RETURN_IF_ERROR(surface_cvt(refined.mesh, refined.edges, data->mass, options.target_vertices, cvt,
-                                            &label, &result.cvt));
-            const auto& e = result.cvt.energy;
-            char text[160];
-            std::snprintf(text, sizeof text, "%d sweeps%s, energy %.4g -> %.4g", result.cvt.sweeps,
-                          result.cvt.converged ? " (converged)" : " (sweep limit)", e.front(), e.back());
-            note = warm.from ? "from the cells of the try at " + std::to_string(warm.from->count) + " vertices, " +
-                                   std::to_string(result.cvt.warm_merged) + " merged; " + text
-                             : std::string(text);
-            if (result.cvt.parts_below_minimum > 0)
-              note += "; " + std::to_string(result.cvt.parts_below_minimum) + " of " +
-                      std::to_string(result.cvt.parts) + " parts got fewer than " + std::to_string(cvt.min_per_part) +
-                      " vertices (target too small)";
-            if (result.cvt.cells_split > 0)
-              note += "; " + std::to_string(result.cvt.cells_split) + " cells split for topology, " +
-                      std::to_string(result.cvt.cells_merged) + " merged";
-            if (result.cvt.defective_cells > 0)
-              note += "; " + std::to_string(result.cvt.defective_cells) + " cells still non-manifold";
-            return Status::Ok();
-          },
-          &note));
+      // On a GPU the sweeps run first in colour rounds there (cvt_sweeps.h),
+      // the CPU's sweeps finishing; a failure there reruns the whole CVT on
+      // the CPU.
+      auto run_cvt = [&](const ExecContext& c) -> Status {
+        CvtOptions twin = cvt;
+#ifdef VPR_HAVE_CUDA
+        if (c.device == Device::kCuda)
+          twin.device_sweeps = [&c](const CvtSweepInput& in, std::vector<uint32_t>* l, CvtSweepOutput* o) {
+            return cuda::cvt_colour_sweeps(in, l, o, c);
+          };
+#else
+        (void)c;
+#endif
+        VPR_RETURN_IF_ERROR(
+            surface_cvt(refined.mesh, refined.edges, data->mass, options.target_vertices, twin, &label, &result.cvt));
+        const auto& e = result.cvt.energy;
+        char text[200];
+        std::snprintf(text, sizeof text, "%d sweeps%s%s, energy %.4g -> %.4g", result.cvt.sweeps,
+                      result.cvt.device_sweeps > 0
+                          ? (" (" + std::to_string(result.cvt.device_sweeps) + " in colour rounds on the GPU)").c_str()
+                          : "",
+                      result.cvt.converged ? " (converged)" : " (sweep limit)", e.front(), e.back());
+        note = warm.from ? "from the cells of the try at " + std::to_string(warm.from->count) + " vertices, " +
+                               std::to_string(result.cvt.warm_merged) + " merged; " + text
+                         : std::string(text);
+        if (result.cvt.parts_below_minimum > 0)
+          note += "; " + std::to_string(result.cvt.parts_below_minimum) + " of " + std::to_string(result.cvt.parts) +
+                  " parts got fewer than " + std::to_string(cvt.min_per_part) + " vertices (target too small)";
+        if (result.cvt.cells_split > 0)
+          note += "; " + std::to_string(result.cvt.cells_split) + " cells split for topology, " +
+                  std::to_string(result.cvt.cells_merged) + " merged";
+        if (result.cvt.defective_cells > 0)
+          note += "; " + std::to_string(result.cvt.defective_cells) + " cells still non-manifold";
+        return Status::Ok();
+      };
+      if (device.on_gpu() && options.cvt_sweeps_on_gpu)
+        VPR_RETURN_IF_ERROR(stage.run_twin("cvt", device, run_cvt, "", &note));
+      else
+        VPR_RETURN_IF_ERROR(stage.run(
+            "cvt", cpu, [&] { return run_cvt(ExecContext{}); }, &note));
       VPR_RETURN_IF_ERROR(stage.run(
           "meshing", cpu,
           [&]() -> Status {

@@ -128,6 +128,12 @@ struct PipelineOptions {
   // surface and CVT cells instead of from scratch (run_visual_target): a few
   // sweeps instead of a dozen. -1 above then makes no try ahead.
   bool visual_target_warm = true;
+  // On a GPU, the surface CVT's sweeps run first in colour rounds there
+  // (cvt_sweeps.h) and the CPU's sweeps finish: another local minimum of the
+  // same energy, so the mesh differs from the CPU path's within the stated
+  // tolerances (tests/pipeline/pipeline_gpu_test.cpp). false: the CPU's
+  // sweeps alone, the CPU path's mesh bit for bit.
+  bool cvt_sweeps_on_gpu = true;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
   // Called as each stage ends, e.g. to stream progress; the StageTiming is
