@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -22,7 +23,6 @@ struct LocalArgs {
   bool json = false;
   bool no_draco = false;  // .glb/.gltf output with plain accessors
   int threads = 0;
-  bool cvt_on_cpu = false;  // PipelineOptions::cvt_sweeps_on_gpu off
   PipelineFlagValues flags;
   PipelineOptions options;
 };
@@ -46,7 +46,6 @@ int run_local(LocalArgs& a) {
   if (!renderer.ok()) return fail(renderer.status());
   o.renderer = *renderer;
   if (Status s = apply_pipeline_flags(a.flags, &o); !s.ok()) return fail(s);
-  o.cvt_sweeps_on_gpu = !a.cvt_on_cpu;
   if (!a.attention_map.empty()) {
     auto map = read_saliency(a.attention_map);
     if (!map.ok()) return fail(map.status());
@@ -135,9 +134,14 @@ Command add_local_command(CLI::App& app) {
   cmd->add_option("--debug-dir", o.debug_dir, "Write per-view snapshots, feature images and points here");
   cmd->add_flag("--json", args->json, "Print a JSON report instead of the table");
   cmd->add_option("--threads", args->threads, "Worker threads (0 = all cores)")->capture_default_str();
-  cmd->add_flag("--cvt-on-cpu", args->cvt_on_cpu,
-                "On a GPU, run the CVT's sweeps on the CPU as well: the mesh is then the CPU path's, bit for bit "
-                "(slower)");
+  const std::map<std::string, CvtSweeps> sweeps = {
+      {"auto", CvtSweeps::kAuto}, {"rounds", CvtSweeps::kColourRounds}, {"slabs", CvtSweeps::kSlabs}};
+  cmd->add_option("--cvt-sweeps", args->options.cvt_sweeps,
+                  "How the CVT sweeps: auto (in colour rounds on a GPU, else the CPU's sweeps alone), rounds (in "
+                  "colour rounds on either: the GPU path's mesh without a GPU) or slabs (the CPU's sweeps alone: "
+                  "the CPU path's mesh on a GPU too)")
+      ->transform(CLI::CheckedTransformer(sweeps))
+      ->default_str("auto");
   return [args]() { return run_local(*args); };
 }
 

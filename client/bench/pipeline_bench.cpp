@@ -9,7 +9,8 @@
 //   3. with --concurrency C: throughput of C jobs at once against one at a time.
 // MODEL may end in @1M (or @<N>M): the model midpoint-subdivided to at least
 // N million triangles. Prints Markdown tables; progress goes to stderr.
-//   vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE] [--cvt-on-cpu]
+//   vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]
+//                  [--cvt-sweeps auto|rounds|slabs]
 //                  [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...
 // --density: the jobs' density mode (uniform, curvature, perception, paper;
 // the pipeline's default when not given).
@@ -49,7 +50,7 @@ struct Args {
   int repeat = 3, threads = 0, concurrency = 0, jobs = 0;
   std::string peers = "all";
   std::optional<vpr::DensityMode> density;
-  bool cvt_on_cpu = false;  // PipelineOptions::cvt_sweeps_on_gpu off
+  vpr::CvtSweeps cvt_sweeps = vpr::CvtSweeps::kAuto;
   std::vector<std::pair<std::string, uint32_t>> inputs;
 };
 
@@ -79,7 +80,7 @@ vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::
   options.device = device;
   options.shared_renderer = renderer;
   if (args.density) options.density = *args.density;
-  options.cvt_sweeps_on_gpu = !args.cvt_on_cpu;
+  options.cvt_sweeps = args.cvt_sweeps;
   auto result = vpr::run_pipeline(*mesh, options);
   if (!result.ok()) return result.status();
   const auto encode_start = Clock::now();
@@ -120,8 +121,16 @@ int parse_args(int argc, char** argv, Args* a) {
         return 2;
       }
       a->density = *mode;
-    } else if (s == "--cvt-on-cpu") {
-      a->cvt_on_cpu = true;
+    } else if (s == "--cvt-sweeps") {
+      const std::string m = next();
+      if (m == "auto")
+        a->cvt_sweeps = vpr::CvtSweeps::kAuto;
+      else if (m == "rounds")
+        a->cvt_sweeps = vpr::CvtSweeps::kColourRounds;
+      else if (m == "slabs")
+        a->cvt_sweeps = vpr::CvtSweeps::kSlabs;
+      else
+        return 2;
     } else if (s == "--peers") {
       a->peers = next();
     } else if (s == "--concurrency") {
@@ -173,10 +182,10 @@ double median(std::vector<double> v) {
 int main(int argc, char** argv) {
   Args args;
   if (parse_args(argc, argv, &args) != 0) {
-    std::fprintf(
-        stderr,
-        "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE] [--cvt-on-cpu]\n"
-        "                      [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
+    std::fprintf(stderr,
+                 "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]\n"
+                 "                      [--cvt-sweeps auto|rounds|slabs]\n"
+                 "                      [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
     return 2;
   }
   std::unique_ptr<tbb::global_control> limit;

@@ -217,6 +217,44 @@ TEST(Pipeline, SameSeedGivesIdenticalOutputAtOneAndTwoThreads) {
   EXPECT_NE(r->mesh.positions, one.positions);
 }
 
+// The CVT's sweeps in colour rounds (the GPU path's CVT, here its CPU
+// reference) on a scan with holes: the count exactly, a manifold keeping
+// its boundary loops, as close to the input as the CPU's sweeps alone, another mesh than
+// theirs, and the same on one and two threads.
+TEST(Pipeline, ColourRoundsGiveTheGpuPathsMeshOnAnyThreadCount) {
+  auto input = read_mesh("../shared/models/bunny.obj");
+  ASSERT_TRUE(input.ok()) << input.status().to_string();
+  PipelineOptions rounds = default_options(2000);
+  rounds.cvt_sweeps = CvtSweeps::kColourRounds;
+  auto slabs = run_pipeline(*input, default_options(2000));
+  ASSERT_TRUE(slabs.ok()) << slabs.status().to_string();
+  Mesh one;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    auto r = run_pipeline(*input, rounds);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    one = r->mesh;
+  }
+  auto r = run_pipeline(*input, rounds);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  EXPECT_EQ(r->mesh.positions, one.positions);
+  EXPECT_EQ(r->mesh.indices, one.indices);
+  EXPECT_NE(r->mesh.positions, slabs->mesh.positions);
+  EXPECT_EQ(r->mesh.vertex_count(), 2000u);
+  EXPECT_GT(r->cvt.device_sweeps, 0u);
+  EXPECT_EQ(slabs->cvt.device_sweeps, 0u);
+  EXPECT_LT(r->cvt.energy.back(), 1.02 * slabs->cvt.energy.back());
+  const MeshQuality q = mesh_quality(r->mesh), qs = mesh_quality(slabs->mesh);
+  EXPECT_EQ(q.non_manifold_edges, 0u);
+  EXPECT_EQ(q.boundary_loops, qs.boundary_loops);
+  EXPECT_GT(q.boundary_loops, 0u);
+  HausdorffOptions ho;
+  ho.samples_per_mesh = 50'000;
+  auto h = hausdorff_distance(*input, r->mesh, ho), hs = hausdorff_distance(*input, slabs->mesh, ho);
+  ASSERT_TRUE(h.ok() && hs.ok());
+  EXPECT_LT(h->mean, 1.1 * hs->mean) << h->mean << " against " << hs->mean;
+}
+
 TEST(Pipeline, PolygonSoupOfASphereGivesAClosedGenusZeroMesh) {
   const Mesh soup = testing::flipped_soup(testing::icosphere(4));
   auto result = run_pipeline(soup, default_options(1000));

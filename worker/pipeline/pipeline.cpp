@@ -675,13 +675,16 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       cvt.anisotropy = options.anisotropy;         // the input has a unit diagonal here
       cvt.joined_elements = refined.pinch_copies;  // parts split at a pinch share one equal share
       if (warm.from) cvt.start_label = &warm.from->label;
-      // On a GPU the sweeps run first in colour rounds there (cvt_sweeps.h),
-      // the CPU's sweeps finishing; a failure there reruns the whole CVT on
-      // the CPU.
+      // The sweeps in colour rounds (PipelineOptions::cvt_sweeps) on the
+      // context's device: a GPU failure reruns the CVT on the CPU with the
+      // rounds' CPU reference, the same labels.
+      const bool rounds =
+          options.cvt_sweeps == CvtSweeps::kColourRounds || (options.cvt_sweeps == CvtSweeps::kAuto && device.on_gpu());
       auto run_cvt = [&](const ExecContext& c) -> Status {
         CvtOptions twin = cvt;
+        if (rounds) twin.device_sweeps = cpu::cvt_colour_sweeps;
 #ifdef VPR_HAVE_CUDA
-        if (c.device == Device::kCuda)
+        if (rounds && c.device == Device::kCuda)
           twin.device_sweeps = [&c](const CvtSweepInput& in, std::vector<uint32_t>* l, CvtSweepOutput* o) {
             return cuda::cvt_colour_sweeps(in, l, o, c);
           };
@@ -694,7 +697,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
         char text[200];
         std::snprintf(text, sizeof text, "%d sweeps%s%s, energy %.4g -> %.4g", result.cvt.sweeps,
                       result.cvt.device_sweeps > 0
-                          ? (" (" + std::to_string(result.cvt.device_sweeps) + " in colour rounds on the GPU)").c_str()
+                          ? (" (" + std::to_string(result.cvt.device_sweeps) + " in colour rounds)").c_str()
                           : "",
                       result.cvt.converged ? " (converged)" : " (sweep limit)", e.front(), e.back());
         note = warm.from ? "from the cells of the try at " + std::to_string(warm.from->count) + " vertices, " +
@@ -710,7 +713,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           note += "; " + std::to_string(result.cvt.defective_cells) + " cells still non-manifold";
         return Status::Ok();
       };
-      if (device.on_gpu() && options.cvt_sweeps_on_gpu)
+      if (device.on_gpu() && rounds)
         VPR_RETURN_IF_ERROR(stage.run_twin("cvt", device, run_cvt, "", &note));
       else
         VPR_RETURN_IF_ERROR(stage.run(

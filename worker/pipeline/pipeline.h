@@ -52,6 +52,17 @@ struct StageTiming {
 // the CPU and its timing says why.
 enum class DevicePolicy { kAuto, kCpu, kCuda };
 
+// How the surface CVT's sweeps run. In colour rounds (cvt_sweeps.h), then
+// the CPU's sweeps finishing: another local minimum of the same energy than
+// the CPU's sweeps alone, so the two meshes differ within the tolerances
+// tests/pipeline/pipeline_gpu_test.cpp states. kAuto: colour rounds where the
+// job runs on a GPU (a GPU failure reruns them on the CPU, the same labels),
+// the CPU's sweeps alone elsewhere. kColourRounds: colour rounds on either
+// device (on a CPU their reference: the GPU path's mesh, bit for bit,
+// without a GPU). kSlabs: the CPU's sweeps alone (the CPU path's mesh, bit
+// for bit, on a GPU too).
+enum class CvtSweeps { kAuto, kColourRounds, kSlabs };
+
 struct PipelineOptions {
   uint32_t target_vertices = 0;  // required: output vertex count (within 2%)
   ViewOptions views;
@@ -128,12 +139,7 @@ struct PipelineOptions {
   // surface and CVT cells instead of from scratch (run_visual_target): a few
   // sweeps instead of a dozen. -1 above then makes no try ahead.
   bool visual_target_warm = true;
-  // On a GPU, the surface CVT's sweeps run first in colour rounds there
-  // (cvt_sweeps.h) and the CPU's sweeps finish: another local minimum of the
-  // same energy, so the mesh differs from the CPU path's within the stated
-  // tolerances (tests/pipeline/pipeline_gpu_test.cpp). false: the CPU's
-  // sweeps alone, the CPU path's mesh bit for bit.
-  bool cvt_sweeps_on_gpu = true;
+  CvtSweeps cvt_sweeps = CvtSweeps::kAuto;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
   // Called as each stage ends, e.g. to stream progress; the StageTiming is
