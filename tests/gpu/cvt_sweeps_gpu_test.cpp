@@ -2,7 +2,8 @@
 // reference (cvt_sweeps.cpp): the same labels and energies, bit for bit, on
 // every call surface_cvt makes on a real scan with the pipeline's anisotropy
 // and on a surface with an opening; a tiny device budget is RESOURCE_EXHAUSTED
-// with nothing left charged. Skipped where there is no CUDA device.
+// with nothing left charged. The anisotropic offsets' smoothing passes
+// (edge_smoothing.cu) the same way. Skipped where there is no CUDA device.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 #include "gpu/cuda_device.h"
 #include "io/mesh_io.h"
 #include "surface/cvt_sweeps.h"
+#include "surface/edge_smoothing.h"
 #include "surface/surface_cvt.h"
 #include "test_meshes.h"
 
@@ -86,6 +88,27 @@ TEST_F(CvtSweepsGpu, SameLabelsAsTheCpuReferenceWithAnOpening) {
   EXPECT_EQ(stats.defective_cells, 0u);
 }
 
+TEST_F(CvtSweepsGpu, SmoothingPassesEqualTheCpuBitForBit) {
+  auto bunny = read_mesh("../shared/models/bunny.obj");
+  ASSERT_TRUE(bunny.ok()) << bunny.status().to_string();
+  const MeshEdges edges = mesh_edges(*bunny);
+  std::vector<Vec3d> values(bunny->vertex_count());
+  for (size_t v = 0; v < values.size(); ++v) values[v] = load3d(bunny->positions.data(), v);
+  for (int passes : {1, 20}) {
+    std::vector<Vec3d> cpu_values = values, gpu_values = values;
+    ASSERT_TRUE(cpu::smooth_over_edges(edges, passes, &cpu_values).ok());
+    const Status s = cuda::smooth_over_edges(edges, passes, &gpu_values, gpu_);
+    ASSERT_TRUE(s.ok()) << s.to_string();
+    size_t differ = 0;
+    for (size_t v = 0; v < values.size(); ++v)
+      differ += cpu_values[v].x != gpu_values[v].x || cpu_values[v].y != gpu_values[v].y ||
+                cpu_values[v].z != gpu_values[v].z;
+    EXPECT_EQ(differ, 0u) << passes << " passes";
+  }
+  std::vector<Vec3d> wrong(3);
+  EXPECT_EQ(cuda::smooth_over_edges(edges, 1, &wrong, gpu_).code(), StatusCode::kInvalidArgument);
+}
+
 TEST_F(CvtSweepsGpu, ATinyBudgetIsResourceExhaustedAndReleasesEverything) {
   const Mesh sphere = testing::icosphere(4);
   const MeshEdges edges = mesh_edges(sphere);
@@ -102,6 +125,9 @@ TEST_F(CvtSweepsGpu, ATinyBudgetIsResourceExhaustedAndReleasesEverything) {
   CvtStats stats;
   const Status s = surface_cvt(sphere, edges, mass, 200, options, &label, &stats);
   EXPECT_EQ(s.code(), StatusCode::kResourceExhausted) << s.to_string();
+  EXPECT_EQ(tiny.used.load(), 0u);
+  std::vector<Vec3d> values(sphere.vertex_count());
+  EXPECT_EQ(cuda::smooth_over_edges(edges, 3, &values, ctx).code(), StatusCode::kResourceExhausted);
   EXPECT_EQ(tiny.used.load(), 0u);
 }
 

@@ -684,10 +684,14 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
         CvtOptions twin = cvt;
         if (rounds) twin.device_sweeps = cpu::cvt_colour_sweeps;
 #ifdef VPR_HAVE_CUDA
-        if (rounds && c.device == Device::kCuda)
+        if (rounds && c.device == Device::kCuda) {
           twin.device_sweeps = [&c](const CvtSweepInput& in, std::vector<uint32_t>* l, CvtSweepOutput* o) {
             return cuda::cvt_colour_sweeps(in, l, o, c);
           };
+          twin.device_smoothing = [&c](const MeshEdges& edges, int passes, std::vector<Vec3d>* values) {
+            return cuda::smooth_over_edges(edges, passes, values, c);
+          };
+        }
 #else
         (void)c;
 #endif

@@ -20,6 +20,7 @@
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "surface/cvt_sweep_kernels.h"
+#include "surface/edge_smoothing.h"
 #include "surface/morton_order.h"
 
 namespace vpr {
@@ -297,11 +298,14 @@ constexpr double kMaxTaperSlope = 1.5;
 //   (cluster_mesh.h), which needs cells that cover the crease, while in R^6
 //   a cell across a crease pays for the jump in normal and the cells' walls
 //   would line up with the crease instead.
-std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, const std::vector<Vec3d>& x,
-                                       const std::vector<Vec3d>& vertex_normal, uint32_t count, double anisotropy) {
+// smooth: the passes' twin (CvtOptions::device_smoothing), or empty for the CPU's.
+Status anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, const std::vector<Vec3d>& x,
+                           const std::vector<Vec3d>& vertex_normal, uint32_t count, double anisotropy,
+                           const EdgeSmoothing& smooth, std::vector<Vec3d>* offsets) {
   const size_t nv = x.size();
-  std::vector<Vec3d> y(nv, Vec3d{0, 0, 0});
-  if (!(anisotropy > 0)) return y;
+  std::vector<Vec3d>& y = *offsets;
+  y.assign(nv, Vec3d{0, 0, 0});
+  if (!(anisotropy > 0)) return Status::Ok();
   const double per_cell = double(nv) / std::max<uint32_t>(count, 1);
   const int passes = int(std::clamp(std::lround(per_cell / 2), 1L, 64L));
   // The taper's ramp adds anisotropy / taper to every hop's length in R^6;
@@ -325,19 +329,9 @@ std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, c
   const double mean_edge = edge_count ? edge_sum / double(edge_count) : 0.0;
   const double slope_hops = mean_edge > 0 ? std::ceil(anisotropy / (kMaxTaperSlope * mean_edge)) : 1.0;
   const int taper = int(std::clamp(std::max(std::lround(2 * std::sqrt(per_cell)), long(std::min(slope_hops, 1e6))), 1L, 256L));
-  std::vector<Vec3d> now = vertex_normal, next(nv);
-  for (int it = 0; it < passes; ++it) {
-    // Jacobi passes: each vertex reads only the last pass, so any thread
-    // count gives the same bits.
-    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 4096), [&](const tbb::blocked_range<uint32_t>& r) {
-      for (uint32_t v = r.begin(); v != r.end(); ++v) {
-        Vec3d sum{0, 0, 0};
-        for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) sum = sum + now[*w];
-        next[v] = adj.degree(v) ? now[v] * 0.5 + sum * (0.5 / double(adj.degree(v))) : now[v];
-      }
-    });
-    now.swap(next);
-  }
+  // Jacobi passes (edge_smoothing.h): the same bits on any thread count and either twin.
+  std::vector<Vec3d> now = vertex_normal;
+  VPR_RETURN_IF_ERROR(smooth ? smooth(adj, passes, &now) : cpu::smooth_over_edges(adj, passes, &now));
   // Hops to the nearest sharp vertex, up to `taper`. Which corners are sharp
   // is decided per face in parallel; the distances do not depend on the
   // order the sharp vertices are listed in.
@@ -378,9 +372,8 @@ std::vector<Vec3d> anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, c
       if (len > 0) y[v] = now[v] * (anisotropy * double(hops[v]) / (double(taper) * len));
     }
   });
-  return y;
+  return Status::Ok();
 }
-
 
 // The sweeps' slabs (see surface_cvt's sweep loop): elements cut along the
 // longest axis of their bounding box into `slabs` runs of equal count (ties
@@ -477,7 +470,9 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   for (Vec3d& n : vertex_normal)
     if (norm(n) > 0) n = n * (1.0 / norm(n));
   // The normal half of each element's position in R^6 (zero: isotropic).
-  const std::vector<Vec3d> y = anisotropic_offsets(mesh, adj, x, vertex_normal, count, options.anisotropy);
+  std::vector<Vec3d> y;
+  VPR_RETURN_IF_ERROR(
+      anisotropic_offsets(mesh, adj, x, vertex_normal, count, options.anisotropy, options.device_smoothing, &y));
 
   // Connected parts (elements with mass only; isolated vertices have none).
   std::vector<uint32_t> part(nv, UINT32_MAX);

@@ -32,6 +32,7 @@
 #include "core/mesh.h"
 #include "core/status.h"
 #include "surface/cvt_sweeps.h"
+#include "surface/edge_smoothing.h"
 #include "surface/mesh_edges.h"
 
 namespace vpr {
@@ -87,6 +88,10 @@ struct CvtOptions {
   // max_sweeps of their own: they make the bulk of the moves, and the sweeps
   // finish from where they stop. Empty: the sweeps alone.
   CvtDeviceSweeps device_sweeps;
+  // The anisotropic offsets' smoothing passes on another device
+  // (edge_smoothing.h; the pipeline passes the GPU twin with the sweeps'):
+  // the same bits. Empty: on the CPU.
+  EdgeSmoothing device_smoothing;
 };
 
 struct CvtStats {
