@@ -3,7 +3,7 @@
 // every call surface_cvt makes on a real scan with the pipeline's anisotropy
 // and on a surface with an opening; a tiny device budget is RESOURCE_EXHAUSTED
 // with nothing left charged. The anisotropic offsets' smoothing passes
-// (edge_smoothing.cu) the same way. Skipped where there is no CUDA device.
+// (edge_smoothing.cu) and the cells' growth (cell_growth.cu) the same way. Skipped where there is no CUDA device.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -13,6 +13,7 @@
 
 #include "gpu/cuda_device.h"
 #include "io/mesh_io.h"
+#include "surface/cell_growth.h"
 #include "surface/cvt_sweeps.h"
 #include "surface/edge_smoothing.h"
 #include "surface/surface_cvt.h"
@@ -107,6 +108,40 @@ TEST_F(CvtSweepsGpu, SmoothingPassesEqualTheCpuBitForBit) {
   }
   std::vector<Vec3d> wrong(3);
   EXPECT_EQ(cuda::smooth_over_edges(edges, 1, &wrong, gpu_).code(), StatusCode::kInvalidArgument);
+}
+
+TEST_F(CvtSweepsGpu, CellsGrowAsOnTheCpuBitForBit) {
+  auto bunny = read_mesh("../shared/models/bunny.obj");
+  ASSERT_TRUE(bunny.ok()) << bunny.status().to_string();
+  const MeshEdges edges = mesh_edges(*bunny);
+  const size_t nv = bunny->vertex_count();
+  std::vector<Vec3d> x(nv), normal(nv, Vec3d{0, 0, 0});
+  for (size_t v = 0; v < nv; ++v) x[v] = load3d(bunny->positions.data(), v);
+  for (size_t f = 0; f < bunny->face_count(); ++f) {
+    const uint32_t* t = &bunny->indices[3 * f];
+    const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+    for (int k = 0; k < 3; ++k) normal[t[k]] = normal[t[k]] + n;
+  }
+  for (Vec3d& n : normal)
+    if (norm(n) > 0) n = n * (1.0 / norm(n));
+  for (uint32_t stride : {37u, 1009u}) {  // many small cells; few, where the facing rule binds
+    std::vector<uint32_t> seeds, start(nv, kNoCell);
+    for (uint32_t v = 0; v < nv; v += stride) {
+      start[v] = uint32_t(seeds.size());
+      seeds.push_back(v);
+    }
+    CellGrowthInput in;
+    in.edges = &edges;
+    in.x = x.data();
+    in.normal = normal.data();
+    in.seeds = &seeds;
+    std::vector<uint32_t> cpu_label = start, gpu_label = start;
+    ASSERT_TRUE(cpu::grow_cells(in, &cpu_label).ok());
+    const Status s = cuda::grow_cells(in, &gpu_label, gpu_);
+    ASSERT_TRUE(s.ok()) << s.to_string();
+    EXPECT_EQ(gpu_label, cpu_label) << "seeds every " << stride;
+    EXPECT_LT(std::count(gpu_label.begin(), gpu_label.end(), kNoCell), 50) << "seeds every " << stride;
+  }
 }
 
 TEST_F(CvtSweepsGpu, ATinyBudgetIsResourceExhaustedAndReleasesEverything) {

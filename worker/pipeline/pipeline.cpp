@@ -691,6 +691,9 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           twin.device_smoothing = [&c](const MeshEdges& edges, int passes, std::vector<Vec3d>* values) {
             return cuda::smooth_over_edges(edges, passes, values, c);
           };
+          twin.device_growth = [&c](const CellGrowthInput& in, std::vector<uint32_t>* l) {
+            return cuda::grow_cells(in, l, c);
+          };
         }
 #else
         (void)c;

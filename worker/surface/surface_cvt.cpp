@@ -1,16 +1,13 @@
 #include "surface/surface_cvt.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstdint>
-#include <memory>
 #include <numeric>
 #include <queue>
 #include <string>
@@ -19,6 +16,7 @@
 #include "core/collect_in_order.h"
 #include "core/rng.h"
 #include "core/vec3.h"
+#include "surface/cell_growth.h"
 #include "surface/cvt_sweep_kernels.h"
 #include "surface/edge_smoothing.h"
 #include "surface/morton_order.h"
@@ -646,79 +644,14 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       }
     }
 
-    // Grow the cells from the seeds over the edges to the nearest seed (graph
-    // distance on edge lengths), so every cell starts connected. In rounds, in
-    // parallel (Bellman-Ford on a moving front): each element next to one that
-    // improved last round takes its best neighbour's distance plus the edge,
-    // and its cell, if that is shorter; every round reads only the last one, so
-    // any thread count gives the same cells. At the end each element's cell is
-    // that of a neighbour nearer the same seed: the cells are connected.
-    {
-      std::vector<double> dist(nv, INFINITY);
-      for (uint32_t s : seeds) dist[s] = 0;
-      // The rounds' sets are the same on any thread count; the order in which
-      // threads list them is not, and nothing depends on it.
-      std::unique_ptr<std::atomic<uint32_t>[]> listed(new std::atomic<uint32_t>[nv]);
-      for (size_t v = 0; v < nv; ++v) listed[v].store(0, std::memory_order_relaxed);
-      std::vector<uint32_t> front = seeds, candidates;
-      std::vector<std::pair<double, uint32_t>> better;
-      tbb::enumerable_thread_specific<std::vector<uint32_t>> local;
-      auto gather = [&](std::vector<uint32_t>* out) {
-        out->clear();
-        for (auto& l : local) out->insert(out->end(), l.begin(), l.end()), l.clear();
-      };
-      // Two passes: first each cell takes only elements facing within 100
-      // degrees of its seed (kFacing), so that no cell starts round a thin part
-      // or over the rim of a thin plate; then, from where that stopped, the
-      // elements no cell could take (a part with a seed on one side only) go to
-      // the nearest cell whatever way they face, the first pass's cells settled.
-      std::vector<char> settled(nv, 0);
-      uint32_t round = 1;
-      auto grow = [&](bool facing) {
-        for (; !front.empty(); ++round) {
-          tbb::parallel_for(tbb::blocked_range<size_t>(0, front.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
-            auto& out = local.local();
-            for (size_t i = r.begin(); i != r.end(); ++i)
-              for (const uint32_t* w = adj.begin(front[i]); w != adj.end(front[i]); ++w)
-                if (!settled[*w] && listed[*w].exchange(round, std::memory_order_relaxed) != round)
-                  out.push_back(*w);
-          });
-          gather(&candidates);
-          better.resize(candidates.size());
-          tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
-            for (size_t i = r.begin(); i != r.end(); ++i) {
-              const uint32_t v = candidates[i];
-              better[i] = {dist[v], UINT32_MAX};
-              for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
-                if (facing && label[*w] != UINT32_MAX &&
-                    dot(vertex_normal[v], vertex_normal[seeds[label[*w]]]) < kFacing)
-                  continue;
-                const double nd = dist[*w] + norm(x[*w] - x[v]);
-                if (nd < better[i].first) better[i] = {nd, label[*w]};
-              }
-            }
-          });
-          tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
-            auto& out = local.local();
-            for (size_t i = r.begin(); i != r.end(); ++i)
-              if (better[i].second != UINT32_MAX) {
-                dist[candidates[i]] = better[i].first;
-                label[candidates[i]] = better[i].second;
-                out.push_back(candidates[i]);
-              }
-          });
-          gather(&front);
-        }
-      };
-      grow(true);
-      front.clear();
-      for (uint32_t v = 0; v < nv; ++v) {
-        settled[v] = label[v] != UINT32_MAX;
-        if (settled[v] && std::any_of(adj.begin(v), adj.end(v), [&](uint32_t w) { return label[w] == UINT32_MAX; }))
-          front.push_back(v);
-      }
-      grow(false);
-    }
+    // Grow the cells from the seeds over the edges to the nearest seed
+    // (cell_growth.h), on the device beside the sweeps' when given.
+    CellGrowthInput grow;
+    grow.edges = &adj;
+    grow.x = x.data();
+    grow.normal = vertex_normal.data();
+    grow.seeds = &seeds;
+    VPR_RETURN_IF_ERROR(options.device_growth ? options.device_growth(grow, &label) : cpu::grow_cells(grow, &label));
   }
 
   uint32_t clusters_now = warm ? start_cells : count;

@@ -31,6 +31,7 @@
 
 #include "core/mesh.h"
 #include "core/status.h"
+#include "surface/cell_growth.h"
 #include "surface/cvt_sweeps.h"
 #include "surface/edge_smoothing.h"
 #include "surface/mesh_edges.h"
@@ -92,6 +93,10 @@ struct CvtOptions {
   // (edge_smoothing.h; the pipeline passes the GPU twin with the sweeps'):
   // the same bits. Empty: on the CPU.
   EdgeSmoothing device_smoothing;
+  // The cells' growth from their seeds on another device (cell_growth.h; the
+  // pipeline passes the GPU twin with the sweeps'): the same cells. Empty: on
+  // the CPU.
+  CellGrowth device_growth;
 };
 
 struct CvtStats {
