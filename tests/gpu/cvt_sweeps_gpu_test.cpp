@@ -140,7 +140,14 @@ TEST_F(CvtSweepsGpu, CellsGrowAsOnTheCpuBitForBit) {
     const Status s = cuda::grow_cells(in, &gpu_label, gpu_);
     ASSERT_TRUE(s.ok()) << s.to_string();
     EXPECT_EQ(gpu_label, cpu_label) << "seeds every " << stride;
-    EXPECT_LT(std::count(gpu_label.begin(), gpu_label.end(), kNoCell), 50) << "seeds every " << stride;
+    // Reached: all but the vertices no face uses (1,113 of bunny.obj's 35,947).
+    size_t unreached = 0, isolated = 0;
+    for (uint32_t v = 0; v < nv; ++v) {
+      unreached += gpu_label[v] == kNoCell;
+      isolated += edges.degree(v) == 0;
+    }
+    EXPECT_LE(unreached, isolated) << "seeds every " << stride;
+    EXPECT_GT(nv - unreached, 34000u);
   }
 }
 
