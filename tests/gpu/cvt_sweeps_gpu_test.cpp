@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "gpu/cuda_device.h"
+#include "cuda_test.h"
 #include "io/mesh_io.h"
 #include "surface/cell_growth.h"
 #include "surface/cvt_sweeps.h"
@@ -22,19 +22,8 @@
 namespace vpr {
 namespace {
 
-class CvtSweepsGpu : public ::testing::Test {
+class CvtSweepsGpu : public CudaTest {
  protected:
-  void SetUp() override {
-    std::string why;
-    if (cuda_devices(&why).empty()) GTEST_SKIP() << why;
-    ASSERT_TRUE(init_cuda_device(0).ok());
-    auto stream = CudaStream::create(0);
-    ASSERT_TRUE(stream.ok()) << stream.status().to_string();
-    stream_ = std::move(stream).value();
-    gpu_.device = Device::kCuda;
-    gpu_.stream = stream_.get();
-  }
-
   // surface_cvt with the GPU's rounds, each call checked against the CPU
   // reference on the same input; returns the calls compared.
   int run_and_compare(const Mesh& mesh, uint32_t count, double anisotropy, CvtStats* stats) {
@@ -60,9 +49,6 @@ class CvtSweepsGpu : public ::testing::Test {
     EXPECT_TRUE(surface_cvt(mesh, edges, mass, count, options, &label, stats).ok());
     return calls;
   }
-
-  CudaStream stream_;
-  ExecContext gpu_;
 };
 
 TEST_F(CvtSweepsGpu, SameLabelsAsTheCpuReferenceOnAScan) {

@@ -14,11 +14,12 @@
 #include <utility>
 #include <vector>
 
+#include "core/rng.h"
+#include "cuda_test.h"
 #include "gpu/cuda_device.h"
 #include "io/mesh_io.h"
 #include "resample/adaptive_sampling.h"
 #include "resample/awlop.h"
-#include "core/rng.h"
 #include "saliency/saliency_field.h"
 #include "test_meshes.h"
 
@@ -27,22 +28,7 @@ namespace {
 
 const ExecContext kCpu{};
 
-class GeometryGpu : public ::testing::Test {
- protected:
-  void SetUp() override {
-    std::string why;
-    if (cuda_devices(&why).empty()) GTEST_SKIP() << why;
-    ASSERT_TRUE(init_cuda_device(0).ok());
-    auto stream = CudaStream::create(0);
-    ASSERT_TRUE(stream.ok()) << stream.status().to_string();
-    stream_ = std::move(stream).value();
-    gpu_.device = Device::kCuda;
-    gpu_.stream = stream_.get();
-  }
-
-  CudaStream stream_;
-  ExecContext gpu_;
-};
+class GeometryGpu : public CudaTest {};
 
 std::vector<float> random_points(size_t n, uint32_t seed) {
   std::mt19937 rng(seed);

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "../test_meshes.h"
+#include "cuda_test.h"
 #include "gpu/cuda_device.h"
 #include "io/mesh_io.h"
 #include "saliency/attention_field.h"
@@ -26,20 +27,7 @@ namespace {
 
 const ExecContext kCpu{};
 
-class AttentionFieldGpu : public ::testing::Test {
- protected:
-  void SetUp() override {
-    std::string why;
-    if (cuda_devices(&why).empty()) GTEST_SKIP() << why;
-    ASSERT_TRUE(init_cuda_device(0).ok());
-    auto stream = CudaStream::create(0);
-    ASSERT_TRUE(stream.ok()) << stream.status().to_string();
-    stream_ = std::move(stream).value();
-    gpu_ = ExecContext{Device::kCuda, stream_.get(), nullptr};
-  }
-  CudaStream stream_;
-  ExecContext gpu_;
-};
+class AttentionFieldGpu : public CudaTest {};
 
 void expect_twins_agree(const Mesh& m, const AttentionFieldOptions& o, const ExecContext& gpu, const std::string& what,
                         FeaturePoints features = {}) {

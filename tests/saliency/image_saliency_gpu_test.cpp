@@ -16,9 +16,11 @@
 #include <string>
 #include <vector>
 
+#include "cuda_test.h"
 #include "gpu/cuda_device.h"
 #include "gpu/device_buffer.h"
 #include "io/mesh_io.h"
+#include "render/views.h"
 #include "saliency/distance_transform.h"
 #include "saliency/gpu_saliency.h"
 #include "saliency/image_saliency.h"
@@ -26,26 +28,15 @@
 #include "saliency/median_filter.h"
 #include "saliency/silhouette_feature.h"
 #include "saliency/unproject.h"
-#include "render/views.h"
 
 namespace vpr {
 namespace {
 
 const ExecContext kCpu{};
 
-class Gpu : public ::testing::Test {
+class Gpu : public CudaTest {
  protected:
-  void SetUp() override {
-    std::string why;
-    if (cuda_devices(&why).empty()) GTEST_SKIP() << why;
-    ASSERT_TRUE(init_cuda_device(0).ok());
-    auto stream = CudaStream::create(0);
-    ASSERT_TRUE(stream.ok()) << stream.status().to_string();
-    stream_ = std::move(stream).value();
-    ctx_ = ExecContext{Device::kCuda, stream_.get(), nullptr};
-  }
-  CudaStream stream_;
-  ExecContext ctx_;
+  const ExecContext& ctx_ = gpu_;  // set by CudaTest::SetUp
 };
 
 // The sizes every twin is run at: one pixel, thin strips, odd and non-square.

@@ -102,13 +102,7 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
       }
     }
     const double now = energy();
-    out->energy.push_back(now);
-    out->moves += moved;
-    ++out->sweeps;
-    if (moved == 0 || previous - now <= in.tolerance * std::abs(previous)) {
-      out->converged = true;
-      break;
-    }
+    if (cvt_sweeps_stop(previous, now, moved, in.tolerance, out)) break;
     previous = now;
   }
   return Status::Ok();

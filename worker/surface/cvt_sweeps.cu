@@ -182,13 +182,7 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
     VPR_RETURN_IF_ERROR(energy(&now));
     VPR_RETURN_IF_ERROR(d_moved.download(&moved, 1));
     VPR_CUDA_TRY(cudaStreamSynchronize(stream));
-    out->energy.push_back(now);
-    out->moves += moved;
-    ++out->sweeps;
-    if (moved == 0 || previous - now <= in.tolerance * std::abs(previous)) {
-      out->converged = true;
-      break;
-    }
+    if (cvt_sweeps_stop(previous, now, size_t(moved), in.tolerance, out)) break;
     previous = now;
   }
   VPR_RETURN_IF_ERROR(d_label.download(label.data(), nv));

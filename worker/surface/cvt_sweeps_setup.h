@@ -55,4 +55,14 @@ inline CvtFixedScale cvt_fixed_scale(const CvtSweepInput& in, const std::vector<
   return k;
 }
 
+// A sweep's end: its E and moves recorded; true when the sweeps stop (as
+// surface_cvt's do: nothing moved, or E fell by at most `tolerance` of itself).
+inline bool cvt_sweeps_stop(double previous, double now, size_t moved, double tolerance, CvtSweepOutput* out) {
+  out->energy.push_back(now);
+  out->moves += moved;
+  ++out->sweeps;
+  out->converged = moved == 0 || previous - now <= tolerance * std::abs(previous);
+  return out->converged;
+}
+
 }  // namespace vpr

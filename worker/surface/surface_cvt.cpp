@@ -655,19 +655,8 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   }
 
   uint32_t clusters_now = warm ? start_cells : count;
-  std::vector<Cluster> clusters(clusters_now);
-  double constant = 0;  // sum m |x|^2
-  for (uint32_t v = 0; v < nv; ++v) {
-    if (label[v] == UINT32_MAX) continue;
-    Cluster& c = clusters[label[v]];
-    c.m += mass[v];
-    c.s = c.s + x[v] * mass[v];
-    c.t = c.t + y[v] * mass[v];
-    c.n = c.n + vertex_normal[v] * mass[v];
-    ++c.size;
-    constant += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
-  }
-  std::vector<double> energy = {total_energy(clusters, constant)};
+  std::vector<Cluster> clusters;
+  double constant = 0;  // sum m |(x, a n)|^2
 
   // Elements per (cluster, loop), and clusters per loop: a cluster may not
   // give up its last element on a loop that has only min_per_loop clusters.
@@ -685,8 +674,27 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     if (loop_of[v] == UINT32_MAX) return;
     if (--on_loop[loop_key(cluster, loop_of[v])] == 0) --loop_clusters[loop_of[v]], --loops_of_cluster[cluster];
   };
-  for (uint32_t v = 0; v < nv; ++v)
-    if (label[v] != UINT32_MAX) loop_add(v, label[v]);
+  // The cells' sums and loop counts from the labels.
+  auto rebuild = [&]() {
+    clusters.assign(clusters_now, Cluster{});
+    on_loop.clear();
+    std::fill(loop_clusters.begin(), loop_clusters.end(), 0);
+    loops_of_cluster.assign(clusters_now, 0);
+    constant = 0;
+    for (uint32_t v = 0; v < nv; ++v) {
+      if (label[v] == UINT32_MAX) continue;
+      Cluster& c = clusters[label[v]];
+      c.m += mass[v];
+      c.s = c.s + x[v] * mass[v];
+      c.t = c.t + y[v] * mass[v];
+      c.n = c.n + vertex_normal[v] * mass[v];
+      ++c.size;
+      constant += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
+      loop_add(v, label[v]);
+    }
+  };
+  rebuild();
+  std::vector<double> energy = {total_energy(clusters, constant)};
   auto loop_keeps = [&](uint32_t v, uint32_t from, uint32_t to) {
     const uint32_t l = loop_of[v];
     if (l == UINT32_MAX) return true;
@@ -801,25 +809,6 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       ++*moved;
     }
     return done;
-  };
-  // The cells' sums and loop counts from the labels.
-  auto rebuild = [&]() {
-    clusters.assign(clusters_now, Cluster{});
-    on_loop.clear();
-    std::fill(loop_clusters.begin(), loop_clusters.end(), 0);
-    loops_of_cluster.assign(clusters_now, 0);
-    constant = 0;
-    for (uint32_t v = 0; v < nv; ++v) {
-      if (label[v] == UINT32_MAX) continue;
-      Cluster& c = clusters[label[v]];
-      c.m += mass[v];
-      c.s = c.s + x[v] * mass[v];
-      c.t = c.t + y[v] * mass[v];
-      c.n = c.n + vertex_normal[v] * mass[v];
-      ++c.size;
-      constant += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
-      loop_add(v, label[v]);
-    }
   };
   // The colour sweeps first when a twin is given (cvt_sweeps.h: the GPU's):
   // the bulk of the moves, the loops' elements only along their loops; the
