@@ -21,8 +21,6 @@ struct MeshEdges {
   size_t degree(uint32_t v) const { return offset[v + 1] - offset[v]; }
   const uint32_t* begin(uint32_t v) const { return neighbor.data() + offset[v]; }
   const uint32_t* end(uint32_t v) const { return neighbor.data() + offset[v + 1]; }
-  // Inline: the CVT's sweeps ask this for every candidate move.
-  bool adjacent(uint32_t a, uint32_t b) const { return std::binary_search(begin(a), end(a), b); }
   // The entry of b in a's row (UINT32_MAX when not adjacent): entry(min, max)
   // numbers each undirected edge once.
   uint32_t entry(uint32_t a, uint32_t b) const {

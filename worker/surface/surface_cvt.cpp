@@ -818,8 +818,11 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   // of 2-4 (bunny, with holes, 4 either way). They have a budget of their
   // own (max_sweeps a call), not counted against the sweeps here.
   size_t device_sweeps = 0;
-  std::vector<char> on_a_loop(nv);
-  for (uint32_t v = 0; v < nv; ++v) on_a_loop[v] = loop_of[v] != UINT32_MAX;
+  std::vector<char> loop_element;  // per element: on a boundary loop (the rounds' input)
+  if (options.device_sweeps) {
+    loop_element.resize(nv);
+    for (uint32_t v = 0; v < nv; ++v) loop_element[v] = loop_of[v] != UINT32_MAX;
+  }
   auto optimize = [&]() -> Status {
     if (options.device_sweeps) {
       CvtSweepInput in;
@@ -828,7 +831,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       in.y = y.data();
       in.normal = vertex_normal.data();
       in.mass = mass.data();
-      in.on_loop = on_a_loop.data();
+      in.on_loop = loop_element.data();
       in.cells = clusters_now;
       in.constant = constant;
       in.tolerance = options.tolerance / 4;
