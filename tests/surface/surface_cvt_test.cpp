@@ -276,6 +276,36 @@ TEST(MeshEdgesTest, RowsMatchTheFacesEdges) {
   EXPECT_EQ(e.entry(0, 0), UINT32_MAX);
 }
 
+TEST(MeshEdgesTest, RowsMatchTheFacesEdgesOnAnyThreadCount) {
+  // Large enough that the rows are counted and filled in several vertex
+  // ranges at once (one per thread, 16,384 vertices or more each): the rows
+  // must still be the map's, on any thread count.
+  const Mesh m = tube(1.0, 2.0, 400, 250);
+  ASSERT_GT(m.vertex_count(), 4u * 16384);
+  std::map<std::pair<uint32_t, uint32_t>, uint32_t> uses;
+  for (size_t f = 0; f < m.face_count(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = m.indices[3 * f + c], b = m.indices[3 * f + (c + 1) % 3];
+      ++uses[{a, b}];
+      ++uses[{b, a}];
+    }
+  std::vector<uint32_t> neighbor, faces;
+  std::vector<uint32_t> offset(m.vertex_count() + 1, 0);
+  for (const auto& [edge, n] : uses) {  // the map's order is the rows' order
+    neighbor.push_back(edge.second);
+    faces.push_back(n);
+    ++offset[edge.first + 1];
+  }
+  std::partial_sum(offset.begin(), offset.end(), offset.begin());
+  for (int threads : {1, 2, 3, 8}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const MeshEdges e = mesh_edges(m);
+    EXPECT_EQ(e.offset, offset) << threads << " threads";
+    EXPECT_EQ(e.neighbor, neighbor) << threads << " threads";
+    EXPECT_EQ(e.faces, faces) << threads << " threads";
+  }
+}
+
 TEST(SurfaceRefineTest, WeldsDuplicatesAndSmoothsTheSameOnAnyThreadCount) {
   // Refinement and density smoothing run in parallel: positions, faces,
   // values and the smoothed channel must not depend on the thread count. The

@@ -4,6 +4,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 namespace vpr {
 
@@ -12,27 +13,34 @@ MeshEdges mesh_edges(const Mesh& mesh) { return mesh_edges(mesh.indices, mesh.ve
 MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count) {
   const size_t nv = vertex_count, nf = indices.size() / 3;
   const uint32_t* idx = indices.data();
-  // Each face edge into both its ends' rows (repeats included), rows in
-  // face order: a counting pass and a scatter, both sequential (they are a
-  // small part of the cost and their order is what makes the rows the same
-  // on any thread count; each row is sorted below anyway).
+  // Each face edge into both its ends' rows (repeats included), each row in
+  // face order. The vertices are cut into one range per thread and each
+  // range's rows are counted and filled by one scan of every face that
+  // keeps only its own ends: no atomics, and every row gets the serial
+  // loop's entries in the serial loop's order, so the rows are the same on
+  // any thread count (and are sorted below anyway). A thread's scan reads
+  // the index buffer in order; the writes, scattered over the rows, were
+  // the cost of the serial loop.
+  const size_t ranges = std::max<size_t>(1, std::min<size_t>(size_t(tbb::this_task_arena::max_concurrency()),
+                                                             nv / 16384));
+  auto range_begin = [&](size_t r) { return uint32_t(nv * r / ranges); };
+  auto each_end_in = [&](size_t r, auto&& visit) {
+    const uint32_t lo = range_begin(r), hi = range_begin(r + 1);
+    for (size_t f = 0; f < nf; ++f)
+      for (int c = 0; c < 3; ++c) {
+        const uint32_t a = idx[3 * f + c], b = idx[3 * f + (c + 1) % 3];
+        if (a == b) continue;
+        if (a >= lo && a < hi) visit(a, b);
+        if (b >= lo && b < hi) visit(b, a);
+      }
+  };
   std::vector<uint32_t> start(nv + 1, 0);
-  for (size_t f = 0; f < nf; ++f)
-    for (int c = 0; c < 3; ++c) {
-      const uint32_t a = idx[3 * f + c], b = idx[3 * f + (c + 1) % 3];
-      if (a == b) continue;
-      ++start[a + 1];
-      ++start[b + 1];
-    }
+  tbb::parallel_for(size_t(0), ranges,
+                    [&](size_t r) { each_end_in(r, [&](uint32_t v, uint32_t) { ++start[v + 1]; }); });
   for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
   std::vector<uint32_t> raw(start[nv]), fill(start.begin(), start.end() - 1);
-  for (size_t f = 0; f < nf; ++f)
-    for (int c = 0; c < 3; ++c) {
-      const uint32_t a = idx[3 * f + c], b = idx[3 * f + (c + 1) % 3];
-      if (a == b) continue;
-      raw[fill[a]++] = b;
-      raw[fill[b]++] = a;
-    }
+  tbb::parallel_for(size_t(0), ranges,
+                    [&](size_t r) { each_end_in(r, [&](uint32_t v, uint32_t w) { raw[fill[v]++] = w; }); });
   // Rows sorted, repeats counted and dropped in place: per row its distinct
   // neighbours, each with the length of its run (the faces using the edge).
   std::vector<uint32_t> runs(raw.size()), distinct(nv + 1, 0);
