@@ -2,6 +2,7 @@
 #include "surface/pinch_split.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <array>
@@ -84,6 +85,42 @@ TEST(PinchSplit, ThreeTetrahedraAtOneVertexGetTwoCopies) {
     const size_t tet = c / 12;
     const uint32_t want = before[c] != 0 ? before[c] : tet == 0 ? 0u : next + uint32_t(tet) - 1;
     EXPECT_EQ(indices[c], want) << c;
+  }
+}
+
+TEST(PinchSplit, ThousandsOfPinchesComeApartTheSameOnAnyThreadCount) {
+  // The pinched vertices are found in parallel, then walked in order with
+  // their neighbours: 3,000 vertices each where three tetrahedra meet (among
+  // 30,000) give two copies each, numbered in vertex order, on any thread
+  // count.
+  std::vector<uint32_t> start;
+  std::vector<double> positions;
+  for (int k = 0; k < 3000; ++k) {
+    const uint32_t apex = uint32_t(positions.size() / 3);
+    positions.insert(positions.end(), {10.0 * (k % 60), 10.0 * (k / 60), 0});
+    for (double dir : {1.0, -1.0, 2.0}) add_tetrahedron(&start, &positions, apex, dir);
+  }
+  const size_t vertices = positions.size() / 3;
+  std::vector<uint32_t> reference;
+  std::vector<std::pair<uint32_t, uint32_t>> reference_copies;
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<uint32_t> indices = start;
+    size_t count = vertices;
+    const auto copies = split_pinched_vertices(&indices, &count, positions);
+    ASSERT_EQ(copies.size(), 6000u);
+    EXPECT_EQ(count, vertices + 6000);
+    for (size_t i = 0; i < copies.size(); ++i) {
+      EXPECT_EQ(copies[i].first, uint32_t(vertices + i));
+      EXPECT_EQ(copies[i].second, uint32_t(10 * (i / 2))) << "apex " << i / 2;  // each apex twice, in order
+    }
+    if (threads == 1) {
+      reference = indices;
+      reference_copies = copies;
+      continue;
+    }
+    EXPECT_EQ(indices, reference) << threads << " threads";
+    EXPECT_EQ(copies, reference_copies) << threads << " threads";
   }
 }
 

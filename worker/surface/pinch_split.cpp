@@ -4,6 +4,10 @@
 #include <cmath>
 #include <numeric>
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include "core/vec3.h"
 
 namespace vpr {
@@ -11,25 +15,39 @@ namespace {
 
 constexpr double kTwoPi = 6.283185307179586;
 
-}  // namespace
+// One vertex's faces grouped into fans, with the scratch it reuses from
+// vertex to vertex (one per thread).
+struct FanFinder {
+  const std::vector<uint32_t>& indices;
+  const std::vector<uint32_t>& offset;  // the corners of vertex v: corner[offset[v] .. offset[v + 1])
+  const std::vector<uint32_t>& corner;
+  const std::vector<double>& positions;
+  const std::vector<std::pair<uint32_t, uint32_t>>& copies;
+  const size_t nv;
+  std::vector<std::pair<uint32_t, uint32_t>> spokes;  // (other end, corner's slot) of v's edges
+  std::vector<uint32_t> fan;                          // per slot of v: its fan's root (find)
+  std::vector<uint32_t> run_faces;
+  std::vector<int> run_forward;
 
-std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<uint32_t>* indices_io,
-                                                                   size_t* vertex_count,
-                                                                   const std::vector<double>& positions) {
-  std::vector<uint32_t>& indices = *indices_io;
-  const size_t nv = *vertex_count;
-  // Corners by vertex (counting sort: the faces of each vertex ascending).
-  std::vector<uint32_t> offset(nv + 1, 0);
-  for (uint32_t v : indices) ++offset[v + 1];
-  std::partial_sum(offset.begin(), offset.end(), offset.begin());
-  std::vector<uint32_t> corner(indices.size()), fill(offset.begin(), offset.end() - 1);
-  for (size_t c = 0; c < indices.size(); ++c) corner[fill[indices[c]]++] = uint32_t(c);
-
-  std::vector<std::pair<uint32_t, uint32_t>> copies;
-  auto position = [&](uint32_t i) {  // a copy sits where its original does
+  Vec3d position(uint32_t i) const {  // a copy sits where its original does
     const size_t o = i < nv ? i : copies[i - nv].second;
     return Vec3d{positions[3 * o], positions[3 * o + 1], positions[3 * o + 2]};
-  };
+  }
+  uint32_t find(uint32_t a) {
+    while (fan[a] != a) a = fan[a] = fan[fan[a]];
+    return a;
+  }
+  void join(uint32_t a, uint32_t b) {
+    const uint32_t ra = find(a), rb = find(b);
+    if (ra != rb) fan[std::max(ra, rb)] = std::min(ra, rb);  // the root is the fan's first face
+  }
+  // Slot i of v's corners: false for a degenerate face (it joins nothing).
+  bool joins(uint32_t v, uint32_t i) const {
+    const uint32_t c = corner[offset[v] + i], f = c / 3;
+    const uint32_t a = indices[3 * f + (c + 1) % 3], b = indices[3 * f + (c + 2) % 3];
+    return !(a == v || b == v || a == b);
+  }
+
   // The faces round an edge used by more than two, paired into sheets: going
   // round the edge (from its lower-numbered end a to b), a face's normal
   // points towards increasing angle when it runs a -> b and towards
@@ -37,11 +55,14 @@ std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<ui
   // normal points away from it on each side is inside a solid, and those two
   // faces are one sheet there (two boxes that share an edge stay two closed
   // boxes; a fin on a face is left alone, its own sheet). partner[i]: the
-  // slot paired with slot i, or itself.
+  // slot of run_faces paired with slot i, or itself.
   std::vector<std::pair<double, uint32_t>> round;
   std::vector<uint32_t> partner;
   bool coincident = false;
-  auto pair_round_edge = [&](uint32_t a, uint32_t b, const std::vector<uint32_t>& faces, const std::vector<int>& forward) {
+
+  void pair_round_edge(uint32_t a, uint32_t b) {
+    const std::vector<uint32_t>& faces = run_faces;
+    const std::vector<int>& forward = run_forward;
     const size_t k = faces.size();
     partner.resize(k);
     std::iota(partner.begin(), partner.end(), 0u);
@@ -97,27 +118,16 @@ std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<ui
       // s's normal points back (b -> a), t's forward (a -> b): inside between them.
       if (!forward[s] && forward[t] && partner[s] == s && partner[t] == t && s != t) partner[s] = t, partner[t] = s;
     }
-  };
+  }
 
-  std::vector<std::pair<uint32_t, uint32_t>> spokes;  // (other end, corner's slot) of v's edges
-  std::vector<uint32_t> fan, name;  // per slot of v: its fan's root; per root: its vertex
-  std::vector<uint32_t> run_faces;
-  std::vector<int> run_forward;
-  for (uint32_t v = 0; v < nv; ++v) {
+  // Groups v's corners into fans (fan, find); returns how many fans its
+  // faces that join anything form.
+  size_t group(uint32_t v) {
     const uint32_t begin = offset[v], n = offset[v + 1] - begin;
-    if (n < 2) continue;
     // Two of v's faces are in one fan when they share an edge at v (and, on
     // an edge of more than two faces, are one sheet there).
     fan.resize(n);
     std::iota(fan.begin(), fan.end(), 0u);
-    auto find = [&](uint32_t a) {
-      while (fan[a] != a) a = fan[a] = fan[fan[a]];
-      return a;
-    };
-    auto join = [&](uint32_t a, uint32_t b) {
-      const uint32_t ra = find(a), rb = find(b);
-      if (ra != rb) fan[std::max(ra, rb)] = std::min(ra, rb);  // the root is the fan's first face
-    };
     spokes.clear();
     for (uint32_t i = 0; i < n; ++i) {
       const uint32_t c = corner[begin + i], f = c / 3;
@@ -145,22 +155,65 @@ std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<ui
           for (int q = 0; q < 3; ++q) forward |= t[q] == a && t[(q + 1) % 3] == b;
           run_forward.push_back(forward);
         }
-        pair_round_edge(a, b, run_faces, run_forward);
+        pair_round_edge(a, b);
         for (size_t s = 0; s < hi - lo; ++s)
           if (coincident) join(spokes[lo].second, spokes[lo + s].second);
           else if (partner[s] != s) join(spokes[lo + s].second, spokes[lo + partner[s]].second);
       }
       lo = hi;
     }
+    size_t fans = 0;
+    for (uint32_t i = 0; i < n; ++i) fans += joins(v, i) && find(i) == i;
+    return fans;
+  }
+};
+
+}  // namespace
+
+std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<uint32_t>* indices_io,
+                                                                   size_t* vertex_count,
+                                                                   const std::vector<double>& positions) {
+  std::vector<uint32_t>& indices = *indices_io;
+  const size_t nv = *vertex_count;
+  // Corners by vertex (counting sort: the faces of each vertex ascending).
+  std::vector<uint32_t> offset(nv + 1, 0);
+  for (uint32_t v : indices) ++offset[v + 1];
+  std::partial_sum(offset.begin(), offset.end(), offset.begin());
+  std::vector<uint32_t> corner(indices.size()), fill(offset.begin(), offset.end() - 1);
+  for (size_t c = 0; c < indices.size(); ++c) corner[fill[indices[c]]++] = uint32_t(c);
+
+  std::vector<std::pair<uint32_t, uint32_t>> copies;
+  // The vertices whose faces form more than one fan as the mesh comes, found
+  // in parallel: nearly every vertex has one fan, and walking them was most
+  // of the cost.
+  std::vector<char> pinched(nv, 0);
+  tbb::enumerable_thread_specific<FanFinder> finders(
+      [&] { return FanFinder{indices, offset, corner, positions, copies, nv}; });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    FanFinder& finder = finders.local();
+    for (size_t v = r.begin(); v != r.end(); ++v) pinched[v] = finder.group(uint32_t(v)) > 1;
+  });
+  // Then in vertex order, as the serial walk of every vertex went: a vertex
+  // given copies renames its corners in its neighbours' faces, which can
+  // change their fans, so a vertex is walked again when it was pinched or a
+  // neighbour before it got copies; every other vertex keeps its one fan and
+  // its name, as the walk would have left it.
+  std::vector<char> touched(nv, 0);
+  FanFinder finder{indices, offset, corner, positions, copies, nv};
+  std::vector<uint32_t> name;  // per root: its vertex
+  for (uint32_t v = 0; v < nv; ++v) {
+    if (!pinched[v] && !touched[v]) continue;
+    const uint32_t begin = offset[v], n = offset[v + 1] - begin;
+    finder.group(v);
+    const size_t copies_before = copies.size();
     // The first fan (that of v's first face) keeps v; each other fan, in the
     // order of its first face, gets a copy.
     name.assign(n, UINT32_MAX);
     bool kept = false;
     for (uint32_t i = 0; i < n; ++i) {
-      const uint32_t c = corner[begin + i], f = c / 3;
-      const uint32_t a = indices[3 * f + (c + 1) % 3], b = indices[3 * f + (c + 2) % 3];
-      if (a == v || b == v || a == b) continue;
-      const uint32_t r = find(i);
+      if (!finder.joins(v, i)) continue;
+      const uint32_t c = corner[begin + i];
+      const uint32_t r = finder.find(i);
       if (name[r] == UINT32_MAX) {
         if (!kept) {
           name[r] = v;
@@ -172,6 +225,12 @@ std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<ui
       }
       indices[c] = name[r];
     }
+    if (copies.size() > copies_before)
+      for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t f = corner[begin + i] / 3;
+        for (int q = 0; q < 3; ++q)
+          if (indices[3 * f + q] < nv) touched[indices[3 * f + q]] = 1;
+      }
   }
   return copies;
 }
