@@ -9,6 +9,7 @@
 #include <cstring>
 #include <string>
 
+#include "core/collect_in_order.h"
 #include "core/vec3.h"
 #include "surface/pinch_split.h"
 
@@ -71,15 +72,20 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
     }
   }
   std::vector<double> pos(out.mesh.positions.begin(), out.mesh.positions.end());  // double while splitting
-  for (size_t f = 0; f < input.face_count(); ++f) {
+  // The faces kept: welded corners distinct and an area above zero (else no
+  // surface to sample), in face order.
+  out.face = collect_in_order<uint32_t>(input.face_count(), [&](size_t f, std::vector<uint32_t>* kept) {
     const uint32_t a = weld[input.indices[3 * f]], b = weld[input.indices[3 * f + 1]],
                    c = weld[input.indices[3 * f + 2]];
-    if (a == b || b == c || c == a) continue;
+    if (a == b || b == c || c == a) return;
     const Vec3d pa = at(pos, a), pb = at(pos, b), pc = at(pos, c);
-    if (!(norm(cross(pb - pa, pc - pa)) > 0)) continue;  // zero area: no surface to sample
-    out.mesh.indices.insert(out.mesh.indices.end(), {a, b, c});
-    out.face.push_back(uint32_t(f));
-  }
+    if (norm(cross(pb - pa, pc - pa)) > 0) kept->push_back(uint32_t(f));
+  });
+  out.mesh.indices.resize(3 * out.face.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, out.face.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t k = r.begin(); k != r.end(); ++k)
+      for (int c = 0; c < 3; ++c) out.mesh.indices[3 * k + c] = weld[input.indices[3 * size_t(out.face[k]) + c]];
+  });
   if (out.mesh.indices.empty()) return invalid_argument("refine: the mesh has no face of positive area");
   // Pinched vertices and edges (sheets that meet at a vertex only, or three
   // or more faces on an edge): a copy per extra fan (surface/pinch_split.h).
@@ -97,6 +103,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
     const Vec3d d = at(pos, a) - at(pos, b);
     return dot(d, d);
   };
+  std::vector<uint32_t> fresh;  // the faces the last pass made
   for (int pass = 0; pass < 64; ++pass) {
     const size_t faces = out.mesh.indices.size() / 3;
     const uint32_t* idx = out.mesh.indices.data();
@@ -112,29 +119,37 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
       bool operator<(const LongCorner& o) const { return edge != o.edge ? edge < o.edge : corner < o.corner; }
     };
     auto successor = [&](size_t h) { return idx[h - h % 3 + (h % 3 + 1) % 3]; };  // the next corner's vertex
-    std::vector<char> is_long(3 * faces, 0);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, faces, 4096), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t f = r.begin(); f != r.end(); ++f)
-        for (size_t h = 3 * f; h < 3 * f + 3; ++h) is_long[h] = length2(idx[h], successor(h)) > max2;
-    });
-    std::vector<LongCorner> corners;
-    for (size_t h = 0; h < 3 * faces; ++h)
-      if (is_long[h]) {
-        const uint32_t a = idx[h], b = successor(h);
-        corners.push_back({uint64_t(std::min(a, b)) << 32 | std::max(a, b), uint32_t(h)});
-      }
+    // Only the faces the last pass made can have a long edge: a face no pass
+    // split had none, and no length changes (the first pass looks at all).
+    const size_t checked = pass == 0 ? faces : fresh.size();
+    std::vector<LongCorner> corners =
+        collect_in_order<LongCorner>(checked, [&](size_t k, std::vector<LongCorner>* list) {
+          const size_t f = pass == 0 ? k : fresh[k];
+          for (size_t h = 3 * f; h < 3 * f + 3; ++h) {
+            const uint32_t a = idx[h], b = successor(h);
+            if (length2(a, b) > max2) list->push_back({uint64_t(std::min(a, b)) << 32 | std::max(a, b), uint32_t(h)});
+          }
+        });
     if (corners.empty()) {
       out.edges = mesh_edges(out.mesh.indices, count);
       break;
     }
     tbb::parallel_sort(corners.begin(), corners.end());  // distinct keys: one order on any thread count
     // Each edge's first corner, in corner order: the new vertices' order.
-    std::vector<std::pair<uint32_t, uint32_t>> first;  // (first corner, run's start in corners)
-    for (size_t i = 0; i < corners.size(); ++i)
-      if (i == 0 || corners[i].edge != corners[i - 1].edge) first.push_back({corners[i].corner, uint32_t(i)});
-    tbb::parallel_sort(first.begin(), first.end());
+    // The run's start is marked at that corner, and the marks read back in
+    // corner order (the faces checked are ascending), which sorts them.
+    std::vector<uint32_t> mid(3 * faces, UINT32_MAX);  // per corner: its run's start, then its midpoint
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, corners.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i != r.end(); ++i)
+        if (i == 0 || corners[i].edge != corners[i - 1].edge) mid[corners[i].corner] = uint32_t(i);
+    });
+    const std::vector<std::pair<uint32_t, uint32_t>> first =  // (first corner, run's start in corners)
+        collect_in_order<std::pair<uint32_t, uint32_t>>(checked, [&](size_t k, auto* list) {
+          const size_t f = pass == 0 ? k : fresh[k];
+          for (size_t h = 3 * f; h < 3 * f + 3; ++h)
+            if (mid[h] != UINT32_MAX) list->push_back({uint32_t(h), mid[h]});
+        });
     // Per face corner: the midpoint of its long edge, or UINT32_MAX.
-    std::vector<uint32_t> mid(3 * faces, UINT32_MAX);
     std::vector<uint32_t> ends(2 * first.size());  // per new vertex, its edge's two ends
     tbb::parallel_for(tbb::blocked_range<size_t>(0, first.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t k = r.begin(); k != r.end(); ++k) {
@@ -208,6 +223,10 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
           }
         }
       }
+    });
+    fresh = collect_in_order<uint32_t>(faces, [&](size_t f, std::vector<uint32_t>* list) {
+      if (slots[f + 1] - slots[f] > 1)
+        for (uint32_t k = slots[f]; k < slots[f + 1]; ++k) list->push_back(k);
     });
     out.mesh.indices = std::move(indices);
     out.face = std::move(face);
