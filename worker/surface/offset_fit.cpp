@@ -12,67 +12,23 @@
 #include <tbb/parallel_for.h>
 
 #include "core/vec3.h"
+#include "surface/offset_match.h"
 
 namespace vpr {
 namespace {
 
 using Eigen::Vector3d;
 
-// cos(30 degrees): a sample is fitted only by a triangle within 30 degrees of
-// its own input face's plane.
-constexpr double kSameSide = 0.8660254037844386;
-
 Vector3d eig(const Vec3d& v) {
   return {v.x, v.y, v.z};
 }
-
-// The closest point of triangle abc to p, as barycentric weights of a, b, c
-// (Ericson, Real-Time Collision Detection, 5.1.5).
-Vector3d closest_barycentric(const Vector3d& p, const Vector3d& a, const Vector3d& b, const Vector3d& c) {
-  const Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return {1, 0, 0};
-  const Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return {0, 1, 0};
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-    const double v = d1 / (d1 - d3);
-    return {1 - v, v, 0};
-  }
-  const Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return {0, 0, 1};
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-    const double w = d2 / (d2 - d6);
-    return {1 - w, 0, w};
-  }
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
-    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return {0, 1 - w, w};
-  }
-  const double denom = 1.0 / (va + vb + vc);
-  return {1 - (vb + vc) * denom, vb * denom, vc * denom};
-}
-
-// One sample of the input matched to the output: face, barycentrics of the
-// nearest point, the signed distance along the face's normal, and weight.
-struct Match {
-  int64_t face = -1;
-  Vector3d bary = Vector3d::Zero();
-  Vector3d normal = Vector3d::Zero();
-  double residual = 0;
-  double weight = 0;
-};
 
 }  // namespace
 
 Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, const std::vector<uint32_t>& cell_of_vertex,
                    const std::vector<char>& held, const OffsetFitOptions& options, Mesh* mesh, OffsetFitStats* stats) {
   OffsetFitStats st;
-  const size_t nv = mesh->vertex_count(), nf = mesh->face_count(), sf = surface.face_count();
+  const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
   if (label.size() != surface.vertex_count() || cell_of_vertex.size() != nv || held.size() != nv)
     return invalid_argument("offset fit: one label per surface vertex, one cell and one flag per output vertex expected");
   if (!options.enabled || nv == 0 || nf == 0) {
@@ -130,76 +86,34 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
   }
   st.free_vertices = size_t(free_count);
 
-  // Samples: one per input face, at its centroid, weighted by its area,
-  // belonging to the cell of its first labelled corner (the refined faces are
-  // a sixteenth of a cell: the one-ring searched below covers the cell's
-  // neighbourhood either way).
-  std::vector<Vector3d> unit_normal(nf);  // the output's triangles' unit normals (zero: degenerate)
-  auto match_all = [&](std::vector<Match>* out) {
-    out->assign(sf, Match{});
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 1024), [&](const tbb::blocked_range<size_t>& range) {
-      for (size_t g = range.begin(); g != range.end(); ++g) {
-        const uint32_t* u = &mesh->indices[3 * g];
-        const Vector3d n = (pos(u[1]) - pos(u[0])).cross(pos(u[2]) - pos(u[0]));
-        unit_normal[g] = n.squaredNorm() > 0 ? n.normalized() : Vector3d::Zero();
+  // The samples matched to the output's triangles (offset_match.h): on the
+  // device when the caller gave one, else here; a device that fails leaves
+  // the host to do it, with the same bits.
+  const OffsetSamples samples{&surface, &label, cells, mesh, &vert_start, &verts_of, &face_start, &faces_of};
+  auto match_all = [&](std::vector<OffsetMatch>* out) -> Status {
+    if (options.device_match) {
+      const Status on_device = options.device_match(samples, out);
+      if (on_device.ok()) {
+        ++st.device_rounds;
+        return on_device;
       }
-    });
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, sf, 1024), [&](const tbb::blocked_range<size_t>& range) {
-      for (size_t f = range.begin(); f != range.end(); ++f) {
-        const uint32_t* t = &surface.indices[3 * f];
-        const Vector3d a = eig(load3d(surface.positions.data(), t[0])), b = eig(load3d(surface.positions.data(), t[1])),
-                       c = eig(load3d(surface.positions.data(), t[2]));
-        const Vector3d cr = (b - a).cross(c - a);
-        const double area = 0.5 * cr.norm();
-        if (!(area > 0)) continue;
-        const Vector3d input_normal = cr.normalized();
-        uint32_t cell = UINT32_MAX;
-        for (int k = 0; k < 3 && cell == UINT32_MAX; ++k) cell = label[t[k]];
-        if (cell == UINT32_MAX || cell >= cells) continue;
-        const Vector3d p = (a + b + c) / 3;
-        Match best;
-        double best_d = INFINITY;
-        for (uint32_t i = vert_start[cell]; i < vert_start[cell + 1]; ++i) {
-          const uint32_t v = verts_of[i];
-          for (uint32_t j = face_start[v]; j < face_start[v + 1]; ++j) {
-            const uint32_t g = faces_of[j];
-            const Vector3d& n = unit_normal[g];
-            // Only triangles parallel to the sample's face, not one that
-            // cuts across a crease (its normal between the two sides').
-            // Either winding: scans come with faces wound both ways.
-            if (std::abs(n.dot(input_normal)) < kSameSide) continue;  // a degenerate one too (n = 0)
-            const uint32_t* u = &mesh->indices[3 * g];
-            const Vector3d x = pos(u[0]), y = pos(u[1]), z = pos(u[2]);
-            const Vector3d bc = closest_barycentric(p, x, y, z);
-            const double d = (p - (bc[0] * x + bc[1] * y + bc[2] * z)).squaredNorm();
-            if (d < best_d) {
-              best_d = d;
-              best.face = g;
-              best.bary = bc;
-              best.normal = n;
-              best.residual = best.normal.dot(p - x);
-            }
-          }
-        }
-        if (best.face < 0) continue;
-        best.weight = area;
-        (*out)[f] = best;
-      }
-    });
+      st.device_failure = on_device.message();
+    }
+    return cpu::match_offset_samples(samples, out);
   };
-  auto weighted_rms = [](const std::vector<Match>& m) {
+  auto weighted_rms = [](const std::vector<OffsetMatch>& m) {
     double sum = 0, w = 0;
-    for (const Match& x : m) sum += x.weight * x.residual * x.residual, w += x.weight;
+    for (const OffsetMatch& x : m) sum += x.weight * x.residual * x.residual, w += x.weight;
     return w > 0 ? std::sqrt(sum / w) : 0.0;
   };
 
   std::vector<Vector3d> start(nv);
   for (uint32_t v = 0; v < nv; ++v) start[v] = pos(v);
   std::vector<double> offset(nv, 0.0);
-  std::vector<Match> match;
+  std::vector<OffsetMatch> match;
   std::vector<double> last_offset(nv, 0.0);  // the offsets the last round's samples were matched at
   for (int round = 0; round < options.rounds && free_count > 0; ++round) {
-    match_all(&match);
+    VPR_RETURN_IF_ERROR(match_all(&match));
     last_offset = offset;
     if (round == 0) st.rms_before = weighted_rms(match);
     // Normal equations of the residuals above, in the increment e of the
@@ -209,12 +123,12 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
     // samples' order): the system then has nine entries per triangle rather
     // than per sample.
     std::vector<std::array<double, 15>> per_face(nf, std::array<double, 15>{});
-    for (const Match& m : match) {
+    for (const OffsetMatch& m : match) {
       if (m.face < 0) continue;
       std::array<double, 15>& s = per_face[size_t(m.face)];
       for (int k = 0; k < 3; ++k) {
-        const double wb = m.weight * m.bary[k];
-        for (int l = 0; l < 3; ++l) s[3 * k + l] += wb * m.bary[l];
+        const double wb = m.weight * component(m.bary, k);
+        for (int l = 0; l < 3; ++l) s[3 * k + l] += wb * component(m.bary, l);
         s[9 + k] += wb * m.residual;
         s[12 + k] += wb;
       }
@@ -300,11 +214,12 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
   // linear model above: no second search for the nearest triangles).
   if (!match.empty()) {
     double sum = 0, w = 0;
-    for (const Match& m : match) {
+    for (const OffsetMatch& m : match) {
       if (m.face < 0) continue;
       const uint32_t* u = &mesh->indices[3 * size_t(m.face)];
       double r = m.residual;
-      for (int k = 0; k < 3; ++k) r -= m.bary[k] * normal[u[k]].dot(m.normal) * (offset[u[k]] - last_offset[u[k]]);
+      for (int k = 0; k < 3; ++k)
+        r -= component(m.bary, k) * normal[u[k]].dot(eig(m.normal)) * (offset[u[k]] - last_offset[u[k]]);
       sum += m.weight * r * r, w += m.weight;
     }
     st.rms_after = w > 0 ? std::sqrt(sum / w) : 0.0;

@@ -27,10 +27,12 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/mesh.h"
 #include "core/status.h"
+#include "surface/offset_match.h"
 
 namespace vpr {
 
@@ -47,6 +49,9 @@ struct OffsetFitOptions {
   // samples whose nearest triangle changed, for twice the time and little
   // gain once the offsets are bounded.
   int rounds = 1;
+  // The samples' matching on a device (offset_match.h), or empty for the
+  // host's; a failure there falls back to the host (the same bits).
+  OffsetMatching device_match;
 };
 
 struct OffsetFitStats {
@@ -56,6 +61,8 @@ struct OffsetFitStats {
   size_t dropped = 0;          // offsets dropped because they turned a triangle
   double rms_before = 0;       // weighted RMS distance of the samples to the mesh, position units
   double rms_after = 0;        // the same after the fit, by the linear model of the last round
+  int device_rounds = 0;       // rounds whose samples the device matched
+  std::string device_failure;  // why the device did not, when it was asked to and failed
 };
 
 // surface: the (refined) input; label: per surface vertex, its cell (or
