@@ -730,8 +730,19 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           [&]() -> Status {
             std::vector<uint32_t> cell;
             const uint32_t cells = result.cvt.clusters;
+            ClusterMeshOptions mesh_options = options.cluster_mesh;
+#ifdef VPR_HAVE_CUDA
+            // The L2 fit's samples matched on the GPU (the host's bits; the
+            // host matches them if the device fails).
+            if (device.on_gpu()) {
+              const ExecContext& c = device.context();
+              mesh_options.offset.device_match = [&c](const OffsetSamples& s, std::vector<OffsetMatch>* m) {
+                return cuda::match_offset_samples(s, m, c);
+              };
+            }
+#endif
             VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, refined.edges, label, cells, &result.mesh, &cell,
-                                              &result.cluster_mesh, options.cluster_mesh));
+                                              &result.cluster_mesh, mesh_options));
             PartFallbackStats fallback;
             VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, parts_beside.get(), label,
                                                      options.target_vertices, &result.mesh, &cell, &fallback));
@@ -770,6 +781,9 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
                             fit.free_vertices, fit.held_vertices, fit.clamped, fit.dropped, 100 * fit.rms_before,
                             100 * fit.rms_after);
               note += text;
+              if (fit.device_rounds > 0) note += " (samples matched on the GPU)";
+              if (!fit.device_failure.empty())
+                note += " (samples matched on the CPU: the GPU failed: " + fit.device_failure + ")";
             }
             return Status::Ok();
           },
