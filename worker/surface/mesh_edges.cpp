@@ -4,7 +4,8 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
+
+#include "core/vertex_ranges.h"
 
 namespace vpr {
 
@@ -14,18 +15,10 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count) 
   const size_t nv = vertex_count, nf = indices.size() / 3;
   const uint32_t* idx = indices.data();
   // Each face edge into both its ends' rows (repeats included), each row in
-  // face order. The vertices are cut into one range per thread and each
-  // range's rows are counted and filled by one scan of every face that
-  // keeps only its own ends: no atomics, and every row gets the serial
-  // loop's entries in the serial loop's order, so the rows are the same on
-  // any thread count (and are sorted below anyway). A thread's scan reads
-  // the index buffer in order; the writes, scattered over the rows, were
-  // the cost of the serial loop.
-  const size_t ranges = std::max<size_t>(1, std::min<size_t>(size_t(tbb::this_task_arena::max_concurrency()),
-                                                             nv / 16384));
-  auto range_begin = [&](size_t r) { return uint32_t(nv * r / ranges); };
-  auto each_end_in = [&](size_t r, auto&& visit) {
-    const uint32_t lo = range_begin(r), hi = range_begin(r + 1);
+  // face order: counted, then filled, by vertex ranges in parallel
+  // (core/vertex_ranges.h: every row gets the serial loop's entries in its
+  // order, and rows are sorted below anyway).
+  auto each_end_in = [&](uint32_t lo, uint32_t hi, auto&& visit) {
     for (size_t f = 0; f < nf; ++f)
       for (int c = 0; c < 3; ++c) {
         const uint32_t a = idx[3 * f + c], b = idx[3 * f + (c + 1) % 3];
@@ -35,12 +28,14 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count) 
       }
   };
   std::vector<uint32_t> start(nv + 1, 0);
-  tbb::parallel_for(size_t(0), ranges,
-                    [&](size_t r) { each_end_in(r, [&](uint32_t v, uint32_t) { ++start[v + 1]; }); });
+  in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {
+    each_end_in(lo, hi, [&](uint32_t v, uint32_t) { ++start[v + 1]; });
+  });
   for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
   std::vector<uint32_t> raw(start[nv]), fill(start.begin(), start.end() - 1);
-  tbb::parallel_for(size_t(0), ranges,
-                    [&](size_t r) { each_end_in(r, [&](uint32_t v, uint32_t w) { raw[fill[v]++] = w; }); });
+  in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {
+    each_end_in(lo, hi, [&](uint32_t v, uint32_t w) { raw[fill[v]++] = w; });
+  });
   // Rows sorted, repeats counted and dropped in place: per row its distinct
   // neighbours, each with the length of its run (the faces using the edge).
   std::vector<uint32_t> runs(raw.size()), distinct(nv + 1, 0);

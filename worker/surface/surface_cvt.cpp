@@ -14,6 +14,7 @@
 #include <unordered_map>
 
 #include "core/collect_in_order.h"
+#include "core/vertex_ranges.h"
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "surface/cell_growth.h"
@@ -458,15 +459,24 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   if (adj.vertex_count() != nv) return invalid_argument("surface CVT: edges of another mesh");
   if (count < 1) return invalid_argument("surface CVT: at least one cluster");
   std::vector<Vec3d> x(nv);
-  for (size_t v = 0; v < nv; ++v) x[v] = load3d(mesh.positions.data(), v);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v) x[v] = load3d(mesh.positions.data(), v);
+  });
   std::vector<Vec3d> vertex_normal(nv, Vec3d{0, 0, 0});  // unit, area-weighted
-  for (size_t f = 0; f < mesh.face_count(); ++f) {
-    const uint32_t* t = &mesh.indices[3 * f];
-    const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
-    for (int k = 0; k < 3; ++k) vertex_normal[t[k]] = vertex_normal[t[k]] + n;
-  }
-  for (Vec3d& n : vertex_normal)
-    if (norm(n) > 0) n = n * (1.0 / norm(n));
+  in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {  // each vertex's faces in face order (core/vertex_ranges.h)
+    for (size_t f = 0; f < mesh.face_count(); ++f) {
+      const uint32_t* t = &mesh.indices[3 * f];
+      const bool mine[3] = {t[0] >= lo && t[0] < hi, t[1] >= lo && t[1] < hi, t[2] >= lo && t[2] < hi};
+      if (!mine[0] && !mine[1] && !mine[2]) continue;
+      const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+      for (int k = 0; k < 3; ++k)
+        if (mine[k]) vertex_normal[t[k]] = vertex_normal[t[k]] + n;
+    }
+  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v)
+      if (norm(vertex_normal[v]) > 0) vertex_normal[v] = vertex_normal[v] * (1.0 / norm(vertex_normal[v]));
+  });
   // The normal half of each element's position in R^6 (zero: isotropic).
   std::vector<Vec3d> y;
   VPR_RETURN_IF_ERROR(

@@ -1,0 +1,61 @@
+// A serial scatter over faces run by vertex ranges (core/vertex_ranges.h):
+// every vertex gets the serial loop's updates in its order, so sums in
+// double come out bit for bit the serial loop's, on any thread count.
+#include "core/vertex_ranges.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+namespace vpr {
+namespace {
+
+TEST(VertexRanges, ScatteredSumsAreTheSerialLoopsOnAnyThreadCount) {
+  // 300,000 "faces" of three pseudo-random vertices among 100,000, each
+  // adding a value whose rounding depends on the order of the additions.
+  const size_t nv = 100000, nf = 300000;
+  std::vector<uint32_t> corner(3 * nf);
+  uint64_t state = 12345;
+  for (uint32_t& c : corner) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    c = uint32_t((state >> 33) % nv);
+  }
+  auto value = [](size_t f) { return std::sin(double(f)) * 1e3 + 1.0 / double(f + 1); };
+  std::vector<double> serial(nv, 0.0);
+  for (size_t f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) serial[corner[3 * f + k]] += value(f);
+  for (int threads : {1, 2, 3, 8}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<double> sum(nv, 0.0);
+    std::atomic<int> ranges{0};
+    std::vector<std::atomic<int>> covered(nv);
+    in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {
+      ++ranges;
+      for (uint32_t v = lo; v < hi; ++v) ++covered[v];
+      for (size_t f = 0; f < nf; ++f)
+        for (int k = 0; k < 3; ++k)
+          if (corner[3 * f + k] >= lo && corner[3 * f + k] < hi) sum[corner[3 * f + k]] += value(f);
+    });
+    EXPECT_GE(ranges.load(), 1);
+    EXPECT_LE(ranges.load(), threads) << "at most one range per thread";
+    size_t once = 0;
+    for (const auto& c : covered) once += c.load() == 1;
+    EXPECT_EQ(once, nv) << "the ranges cover every vertex once";
+    EXPECT_EQ(sum, serial) << threads << " threads";
+  }
+}
+
+TEST(VertexRanges, FewVerticesAreOneRange) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 8);
+  std::vector<std::pair<uint32_t, uint32_t>> seen;
+  in_vertex_ranges(20000, [&](uint32_t lo, uint32_t hi) { seen.push_back({lo, hi}); });
+  ASSERT_EQ(seen.size(), 1u);  // under two ranges of 16,384
+  EXPECT_EQ(seen[0], std::make_pair(0u, 20000u));
+}
+
+}  // namespace
+}  // namespace vpr

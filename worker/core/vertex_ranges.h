@@ -1,0 +1,33 @@
+// A serial loop over faces that adds into per-vertex values, run in parallel
+// without atomics: the vertices are cut into one range per thread, and each
+// range's thread runs the whole loop, keeping only the updates of its own
+// vertices. Every vertex then gets the serial loop's updates in the serial
+// loop's order (the same bits on any thread count), each thread reads the
+// faces in order, and the scattered writes, which were the serial loop's
+// cost, are shared out. For scans of every face of a large mesh (vertex
+// normals, edge rows); below min_range vertices a range, one thread.
+#pragma once
+
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+
+namespace vpr {
+
+// body(lo, hi): the loop, applying only the updates of vertices in [lo, hi).
+template <class Body>
+void in_vertex_ranges(size_t vertex_count, Body&& body, size_t min_range = 16384) {
+  const size_t threads =
+      std::min<size_t>(size_t(tbb::this_task_arena::max_concurrency()),
+                       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  const size_t ranges = std::max<size_t>(1, std::min<size_t>(threads, vertex_count / min_range));
+  tbb::parallel_for(size_t(0), ranges, [&](size_t r) {
+    body(uint32_t(vertex_count * r / ranges), uint32_t(vertex_count * (r + 1) / ranges));
+  });
+}
+
+}  // namespace vpr
