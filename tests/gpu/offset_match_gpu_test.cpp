@@ -1,12 +1,14 @@
-// The L2 fit's matching on the GPU (offset_match.cu) against the host's
-// (offset_match.cpp): the same matches, bit for bit, on a scan with openings
-// remeshed through the CVT and its dual, and the same fitted mesh; a device
-// that fails (a tiny budget) leaves the host to match, with the same mesh,
-// the failure reported and nothing left charged. Skipped where there is no
-// CUDA device.
+// The L2 fit's samples on the GPU (offset_match.cu) against the host's
+// (offset_match.cpp): the same matches, triangles' sums and RMS sums, bit
+// for bit, on a scan with openings remeshed through the CVT and its dual, and
+// the same fitted mesh; a device that fails (a tiny budget) leaves the host
+// to fit, with the same mesh, the failure reported and nothing left charged.
+// Skipped where there is no CUDA device.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -43,26 +45,45 @@ class OffsetMatchGpu : public CudaTest {
   }
 };
 
-TEST_F(OffsetMatchGpu, SameMatchesAndMeshAsTheHostOnAScan) {
+TEST_F(OffsetMatchGpu, SameMatchesSumsAndMeshAsTheHostOnAScan) {
   auto bunny = read_mesh("../shared/models/bunny.obj");
   ASSERT_TRUE(bunny.ok()) << bunny.status().to_string();
   ClusterMeshOptions on_gpu;
   int calls = 0;
   size_t matched = 0;
-  on_gpu.offset.device_match = [&](const OffsetSamples& s, std::vector<OffsetMatch>* m) {
+  on_gpu.offset.device_samples = [&](const OffsetSamples& s) -> StatusOr<std::unique_ptr<OffsetSampleSet>> {
     ++calls;
-    std::vector<OffsetMatch> host;
+    // The matches themselves, then the sums both sets take of them.
+    std::vector<OffsetMatch> host, device;
     EXPECT_TRUE(cpu::match_offset_samples(s, &host).ok());
-    const Status status = cuda::match_offset_samples(s, m, gpu_);
+    const Status status = cuda::match_offset_samples(s, &device, gpu_);
     EXPECT_TRUE(status.ok()) << status.to_string();
-    EXPECT_EQ(m->size(), host.size());
+    EXPECT_EQ(device.size(), host.size());
     size_t differ = 0;
-    for (size_t i = 0; i < std::min(m->size(), host.size()); ++i) {
-      differ += !same_bits((*m)[i], host[i]);
+    for (size_t i = 0; i < std::min(device.size(), host.size()); ++i) {
+      differ += !same_bits(device[i], host[i]);
       matched += host[i].face >= 0;
     }
     EXPECT_EQ(differ, 0u) << "of " << host.size() << " samples";
-    return status;
+    auto cpu_set = cpu::offset_sample_set(s);
+    auto gpu_set = cuda::offset_sample_set(s, gpu_);
+    EXPECT_TRUE(gpu_set.ok()) << gpu_set.status().to_string();
+    std::vector<OffsetFaceSums> cpu_sums, gpu_sums;
+    double cpu_wr2 = 0, cpu_w = 0, gpu_wr2 = 0, gpu_w = 0;
+    EXPECT_TRUE(cpu_set->match(&cpu_sums, &cpu_wr2, &cpu_w).ok());
+    EXPECT_TRUE((*gpu_set)->match(&gpu_sums, &gpu_wr2, &gpu_w).ok());
+    EXPECT_EQ(gpu_sums, cpu_sums);
+    EXPECT_EQ(gpu_wr2, cpu_wr2);
+    EXPECT_EQ(gpu_w, cpu_w);
+    EXPECT_GT(cpu_w, 0);
+    std::vector<Vec3d> normal(s.mesh->vertex_count(), Vec3d{0, 0, 1});
+    std::vector<double> delta(s.mesh->vertex_count());
+    for (size_t v = 0; v < delta.size(); ++v) delta[v] = 1e-4 * double(v % 7) - 3e-4;
+    EXPECT_TRUE(cpu_set->sums_after(normal, delta, &cpu_wr2, &cpu_w).ok());
+    EXPECT_TRUE((*gpu_set)->sums_after(normal, delta, &gpu_wr2, &gpu_w).ok());
+    EXPECT_EQ(gpu_wr2, cpu_wr2);
+    EXPECT_EQ(gpu_w, cpu_w);
+    return cuda::offset_sample_set(s, gpu_);
   };
   ClusterMeshStats gpu_stats, cpu_stats;
   const Mesh from_gpu = dual(*bunny, 2000, on_gpu, &gpu_stats);
@@ -71,21 +92,23 @@ TEST_F(OffsetMatchGpu, SameMatchesAndMeshAsTheHostOnAScan) {
   EXPECT_GT(matched, bunny->face_count() / 2) << "most samples find a triangle";
   EXPECT_EQ(gpu_stats.offset.device_rounds, 1);
   EXPECT_EQ(cpu_stats.offset.device_rounds, 0);
+  EXPECT_TRUE(gpu_stats.offset.device_failure.empty()) << gpu_stats.offset.device_failure;
   EXPECT_GT(gpu_stats.offset.free_vertices, 1000u);
+  EXPECT_EQ(gpu_stats.offset.rms_before, cpu_stats.offset.rms_before);
+  EXPECT_EQ(gpu_stats.offset.rms_after, cpu_stats.offset.rms_after);
+  EXPECT_LT(cpu_stats.offset.rms_after, cpu_stats.offset.rms_before);
   EXPECT_EQ(from_gpu.positions, from_cpu.positions);
   EXPECT_EQ(from_gpu.indices, from_cpu.indices);
 }
 
-TEST_F(OffsetMatchGpu, AFailingDeviceLeavesTheHostToMatchWithTheSameMesh) {
+TEST_F(OffsetMatchGpu, AFailingDeviceLeavesTheHostToFitWithTheSameMesh) {
   const Mesh sphere = testing::icosphere(5);
   DeviceBudget tiny;
   tiny.limit = 4096;
   ExecContext ctx = gpu_;
   ctx.budget = &tiny;
   ClusterMeshOptions on_gpu;
-  on_gpu.offset.device_match = [&](const OffsetSamples& s, std::vector<OffsetMatch>* m) {
-    return cuda::match_offset_samples(s, m, ctx);
-  };
+  on_gpu.offset.device_samples = [&](const OffsetSamples& s) { return cuda::offset_sample_set(s, ctx); };
   ClusterMeshStats gpu_stats, cpu_stats;
   const Mesh from_gpu = dual(sphere, 500, on_gpu, &gpu_stats);
   const Mesh from_cpu = dual(sphere, 500, ClusterMeshOptions{}, &cpu_stats);

@@ -732,12 +732,12 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             const uint32_t cells = result.cvt.clusters;
             ClusterMeshOptions mesh_options = options.cluster_mesh;
 #ifdef VPR_HAVE_CUDA
-            // The L2 fit's samples matched on the GPU (the host's bits; the
-            // host matches them if the device fails).
+            // The L2 fit's samples matched and summed on the GPU (the host's
+            // bits; the host fits if the device fails).
             if (device.on_gpu()) {
               const ExecContext& c = device.context();
-              mesh_options.offset.device_match = [&c](const OffsetSamples& s, std::vector<OffsetMatch>* m) {
-                return cuda::match_offset_samples(s, m, c);
+              mesh_options.offset.device_samples = [&c](const OffsetSamples& s) {
+                return cuda::offset_sample_set(s, c);
               };
             }
 #endif
@@ -781,9 +781,9 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
                             fit.free_vertices, fit.held_vertices, fit.clamped, fit.dropped, 100 * fit.rms_before,
                             100 * fit.rms_after);
               note += text;
-              if (fit.device_rounds > 0) note += " (samples matched on the GPU)";
+              if (fit.device_rounds > 0) note += " (samples matched and summed on the GPU)";
               if (!fit.device_failure.empty())
-                note += " (samples matched on the CPU: the GPU failed: " + fit.device_failure + ")";
+                note += " (fitted on the CPU: the GPU failed: " + fit.device_failure + ")";
             }
             return Status::Ok();
           },

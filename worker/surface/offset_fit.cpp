@@ -23,10 +23,10 @@ Vector3d eig(const Vec3d& v) {
   return {v.x, v.y, v.z};
 }
 
-}  // namespace
-
-Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, const std::vector<uint32_t>& cell_of_vertex,
-                   const std::vector<char>& held, const OffsetFitOptions& options, Mesh* mesh, OffsetFitStats* stats) {
+// The fit with its samples on the device (options.device_samples) or here.
+Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::vector<uint32_t>& cell_of_vertex,
+           const std::vector<char>& held, const OffsetFitOptions& options, bool on_device, Mesh* mesh,
+           OffsetFitStats* stats) {
   OffsetFitStats st;
   const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
   if (label.size() != surface.vertex_count() || cell_of_vertex.size() != nv || held.size() != nv)
@@ -86,53 +86,36 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
   }
   st.free_vertices = size_t(free_count);
 
-  // The samples matched to the output's triangles (offset_match.h): on the
-  // device when the caller gave one, else here; a device that fails leaves
-  // the host to do it, with the same bits.
+  // The samples, matched to the output's triangles and summed per triangle
+  // (offset_match.h), on the device or here.
   const OffsetSamples samples{&surface, &label, cells, mesh, &vert_start, &verts_of, &face_start, &faces_of};
-  auto match_all = [&](std::vector<OffsetMatch>* out) -> Status {
-    if (options.device_match) {
-      const Status on_device = options.device_match(samples, out);
-      if (on_device.ok()) {
-        ++st.device_rounds;
-        return on_device;
-      }
-      st.device_failure = on_device.message();
-    }
-    return cpu::match_offset_samples(samples, out);
-  };
-  auto weighted_rms = [](const std::vector<OffsetMatch>& m) {
-    double sum = 0, w = 0;
-    for (const OffsetMatch& x : m) sum += x.weight * x.residual * x.residual, w += x.weight;
-    return w > 0 ? std::sqrt(sum / w) : 0.0;
-  };
+  std::unique_ptr<OffsetSampleSet> sample_set;
+  if (on_device) {
+    VPR_ASSIGN_OR_RETURN(sample_set, options.device_samples(samples));
+  } else {
+    sample_set = cpu::offset_sample_set(samples);
+  }
+  auto rms = [](double wr2, double w) { return w > 0 ? std::sqrt(wr2 / w) : 0.0; };
 
   std::vector<Vector3d> start(nv);
   for (uint32_t v = 0; v < nv; ++v) start[v] = pos(v);
   std::vector<double> offset(nv, 0.0);
-  std::vector<OffsetMatch> match;
+  bool matched = false;
   std::vector<double> last_offset(nv, 0.0);  // the offsets the last round's samples were matched at
   for (int round = 0; round < options.rounds && free_count > 0; ++round) {
-    VPR_RETURN_IF_ERROR(match_all(&match));
-    last_offset = offset;
-    if (round == 0) st.rms_before = weighted_rms(match);
-    // Normal equations of the residuals above, in the increment e of the
+    // Normal equations of the residuals, in the increment e of the
     // offsets: (A^T W A + lambda D) e = A^T W r - lambda D d.
     // The samples on one output triangle share its normal, so their terms
     // are summed per triangle first (sum w b b^T, sum w b r, sum w b; in the
     // samples' order): the system then has nine entries per triangle rather
     // than per sample.
-    std::vector<std::array<double, 15>> per_face(nf, std::array<double, 15>{});
-    for (const OffsetMatch& m : match) {
-      if (m.face < 0) continue;
-      std::array<double, 15>& s = per_face[size_t(m.face)];
-      for (int k = 0; k < 3; ++k) {
-        const double wb = m.weight * component(m.bary, k);
-        for (int l = 0; l < 3; ++l) s[3 * k + l] += wb * component(m.bary, l);
-        s[9 + k] += wb * m.residual;
-        s[12 + k] += wb;
-      }
-    }
+    std::vector<OffsetFaceSums> per_face;
+    double wr2 = 0, w = 0;
+    VPR_RETURN_IF_ERROR(sample_set->match(&per_face, &wr2, &w));
+    matched = true;
+    st.device_rounds += on_device;
+    last_offset = offset;
+    if (round == 0) st.rms_before = rms(wr2, w);
     std::vector<Eigen::Triplet<double>> entries;
     entries.reserve(9 * nf + nv);
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(free_count), mass = Eigen::VectorXd::Zero(free_count);
@@ -212,19 +195,37 @@ Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, cons
   }
   // The residuals of the last round's samples under the offsets kept (the
   // linear model above: no second search for the nearest triangles).
-  if (!match.empty()) {
-    double sum = 0, w = 0;
-    for (const OffsetMatch& m : match) {
-      if (m.face < 0) continue;
-      const uint32_t* u = &mesh->indices[3 * size_t(m.face)];
-      double r = m.residual;
-      for (int k = 0; k < 3; ++k)
-        r -= component(m.bary, k) * normal[u[k]].dot(eig(m.normal)) * (offset[u[k]] - last_offset[u[k]]);
-      sum += m.weight * r * r, w += m.weight;
+  if (matched) {
+    std::vector<Vec3d> vertex_normal(nv);
+    std::vector<double> delta(nv);
+    for (uint32_t v = 0; v < nv; ++v) {
+      vertex_normal[v] = {normal[v][0], normal[v][1], normal[v][2]};
+      delta[v] = offset[v] - last_offset[v];
     }
-    st.rms_after = w > 0 ? std::sqrt(sum / w) : 0.0;
+    double wr2 = 0, w = 0;
+    VPR_RETURN_IF_ERROR(sample_set->sums_after(vertex_normal, delta, &wr2, &w));
+    st.rms_after = rms(wr2, w);
   }
   if (stats) *stats = st;
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status fit_offsets(const Mesh& surface, const std::vector<uint32_t>& label, const std::vector<uint32_t>& cell_of_vertex,
+                   const std::vector<char>& held, const OffsetFitOptions& options, Mesh* mesh, OffsetFitStats* stats) {
+  std::string device_failure;
+  if (options.device_samples) {
+    // A device that fails (out of its budget, say) leaves the host to fit
+    // from the same start: the same bits.
+    const std::vector<float> positions = mesh->positions;
+    const Status on_device = fit(surface, label, cell_of_vertex, held, options, true, mesh, stats);
+    if (on_device.ok()) return on_device;
+    device_failure = on_device.message();
+    mesh->positions = positions;
+  }
+  VPR_RETURN_IF_ERROR(fit(surface, label, cell_of_vertex, held, options, false, mesh, stats));
+  if (stats) stats->device_failure = device_failure;
   return Status::Ok();
 }
 

@@ -49,9 +49,9 @@ struct OffsetFitOptions {
   // samples whose nearest triangle changed, for twice the time and little
   // gain once the offsets are bounded.
   int rounds = 1;
-  // The samples' matching on a device (offset_match.h), or empty for the
-  // host's; a failure there falls back to the host (the same bits).
-  OffsetMatching device_match;
+  // The samples matched and summed on a device (offset_match.h), or empty
+  // for the host's; a failure there leaves the host to fit (the same bits).
+  OffsetSampleSource device_samples;
 };
 
 struct OffsetFitStats {
@@ -61,7 +61,7 @@ struct OffsetFitStats {
   size_t dropped = 0;          // offsets dropped because they turned a triangle
   double rms_before = 0;       // weighted RMS distance of the samples to the mesh, position units
   double rms_after = 0;        // the same after the fit, by the linear model of the last round
-  int device_rounds = 0;       // rounds whose samples the device matched
+  int device_rounds = 0;       // rounds whose samples the device matched and summed
   std::string device_failure;  // why the device did not, when it was asked to and failed
 };
 

@@ -1,16 +1,21 @@
 // The L2 fit's samples matched to the output (offset_fit.h): one sample per
 // input face, at its centroid, weighted by its area, matched to the nearest
 // output triangle among those around its cell's vertices that lie within 30
-// degrees of the sample's face plane. Each sample is independent of the
-// others, so the matching is the fit's one step a GPU does at once: on igea
-// at 10,000 it tests about ten triangles for each of 800,000 samples, most of
-// the fit's time on the host. Both twins share the arithmetic below (the .cu
-// is compiled without FMA contraction) and give the same bits.
+// degrees of the sample's face plane, and the sums the fit takes of them (per
+// triangle, in sample order; the RMS). Each sample is independent of the
+// others, so the matching is the fit's step a GPU does at once: on igea at
+// 10,000 it tests about ten triangles for each of 800,000 samples, half the
+// fit's time on the host. On a device the samples stay there and only the
+// triangles' sums come back (the matches are 58 MB on igea: fetching them
+// cost what matching them on the host does). Both twins share the arithmetic
+// below (the .cu is compiled without FMA contraction) and give the same bits.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <vector>
 
 #include "core/exec_context.h"
@@ -142,28 +147,75 @@ VPR_HD inline OffsetMatch match_offset_sample(const OffsetMatchView& in, size_t 
   return best;
 }
 
+// Per output triangle, its samples' terms of the fit's normal equations
+// (offset_fit.cpp), summed in sample order: sum w b_k b_l (9), sum w b_k r
+// (3), sum w b_k (3).
+using OffsetFaceSums = std::array<double, 15>;
+
+VPR_HD inline void add_offset_sample(const OffsetMatch& m, double* s) {
+  for (int k = 0; k < 3; ++k) {
+    const double wb = m.weight * component(m.bary, k);
+    for (int l = 0; l < 3; ++l) s[3 * k + l] += wb * component(m.bary, l);
+    s[9 + k] += wb * m.residual;
+    s[12 + k] += wb;
+  }
+}
+
+// The fit's RMS over the samples (a statistic, not used by the solve): the
+// sums of w r^2 and of w over blocks of this many samples in order, then the
+// blocks' sums in order, so that either twin on any thread count gives one
+// result.
+constexpr size_t kOffsetRmsBlock = 1024;
+
+// Sample i's residual under the offsets' change since its match (the fit's
+// linear model): r - sum_k b_k (N_k . n) delta_k over its triangle's corners.
+VPR_HD inline double residual_after(const OffsetMatch& m, const uint32_t* indices, const Vec3d* vertex_normal,
+                                    const double* delta) {
+  const uint32_t* u = indices + 3 * size_t(m.face);
+  double r = m.residual;
+  for (int k = 0; k < 3; ++k) r -= component(m.bary, k) * dot(vertex_normal[u[k]], m.normal) * delta[u[k]];
+  return r;
+}
+
 // The host's arrays behind an OffsetMatchView.
 struct OffsetSamples {
   const Mesh* surface = nullptr;
   const std::vector<uint32_t>* label = nullptr;
   uint32_t cells = 0;
-  const Mesh* mesh = nullptr;
+  const Mesh* mesh = nullptr;  // read again at every match: the fit moves its vertices between rounds
   const std::vector<uint32_t>* vert_start = nullptr;
   const std::vector<uint32_t>* verts_of = nullptr;
   const std::vector<uint32_t>* face_start = nullptr;
   const std::vector<uint32_t>* faces_of = nullptr;
 };
 
-// One match per input face of samples.surface, in face order.
-using OffsetMatching = std::function<Status(const OffsetSamples&, std::vector<OffsetMatch>*)>;
+// The samples, matched where they live (host or device), and what the fit
+// takes of them; only the triangles' sums and the RMS sums cross over.
+class OffsetSampleSet {
+ public:
+  virtual ~OffsetSampleSet() = default;
+  // Matches every sample to the mesh as it is now. per_face: one sum per
+  // output triangle; wr2, w: the RMS sums of the residuals.
+  virtual Status match(std::vector<OffsetFaceSums>* per_face, double* wr2, double* w) = 0;
+  // The RMS sums of the last match's residuals under the offsets' change
+  // (residual_after); vertex_normal and delta: per output vertex.
+  virtual Status sums_after(const std::vector<Vec3d>& vertex_normal, const std::vector<double>& delta, double* wr2,
+                            double* w) = 0;
+};
+
+// A device's sample set for the fit, or an error (the fit then uses the host's).
+using OffsetSampleSource = std::function<StatusOr<std::unique_ptr<OffsetSampleSet>>(const OffsetSamples&)>;
 
 namespace cpu {
+// Every sample's match, in face order (the reference; tests).
 Status match_offset_samples(const OffsetSamples& samples, std::vector<OffsetMatch>* matches);
+std::unique_ptr<OffsetSampleSet> offset_sample_set(const OffsetSamples& samples);
 }  // namespace cpu
 
 // GPU twin, built when VPR_HAVE_CUDA (offset_match.cu): the same bits.
 namespace cuda {
 Status match_offset_samples(const OffsetSamples& samples, std::vector<OffsetMatch>* matches, const ExecContext& ctx);
+StatusOr<std::unique_ptr<OffsetSampleSet>> offset_sample_set(const OffsetSamples& samples, const ExecContext& ctx);
 }  // namespace cuda
 
 }  // namespace vpr
