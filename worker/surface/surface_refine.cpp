@@ -119,8 +119,9 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
       bool operator<(const LongCorner& o) const { return edge != o.edge ? edge < o.edge : corner < o.corner; }
     };
     auto successor = [&](size_t h) { return idx[h - h % 3 + (h % 3 + 1) % 3]; };  // the next corner's vertex
-    // Only the faces the last pass made can have a long edge: a face no pass
-    // split had none, and no length changes (the first pass looks at all).
+    // Only the faces the last pass made can have a long edge: a face it left
+    // whole had none, and lengths never change (the first pass looks at
+    // every face).
     const size_t checked = pass == 0 ? faces : fresh.size();
     std::vector<LongCorner> corners =
         collect_in_order<LongCorner>(checked, [&](size_t k, std::vector<LongCorner>* list) {
