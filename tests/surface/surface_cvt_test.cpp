@@ -247,11 +247,9 @@ TEST(SurfaceRefineTest, GeometryFirstThenValuesGivesRefineSurfaceBits) {
   EXPECT_EQ(carry_values(std::vector<float>(3), 2, &wrong).code(), StatusCode::kInvalidArgument);
 }
 
-TEST(MeshEdgesTest, RowsMatchTheFacesEdges) {
-  // Against a map of every face edge: each row holds the vertex's distinct
-  // neighbours in ascending order, each with the number of faces that use
-  // the edge; an open tube has boundary edges (one face) at both ends.
-  const Mesh m = tube(1.0, 2.0, 17, 5);
+// Every face edge both ways, with the number of faces that use it: the
+// reference the edge rows are checked against.
+std::map<std::pair<uint32_t, uint32_t>, uint32_t> edge_uses(const Mesh& m) {
   std::map<std::pair<uint32_t, uint32_t>, uint32_t> uses;
   for (size_t f = 0; f < m.face_count(); ++f)
     for (int c = 0; c < 3; ++c) {
@@ -259,6 +257,15 @@ TEST(MeshEdgesTest, RowsMatchTheFacesEdges) {
       ++uses[{a, b}];
       ++uses[{b, a}];
     }
+  return uses;
+}
+
+TEST(MeshEdgesTest, RowsMatchTheFacesEdges) {
+  // Against a map of every face edge: each row holds the vertex's distinct
+  // neighbours in ascending order, each with the number of faces that use
+  // the edge; an open tube has boundary edges (one face) at both ends.
+  const Mesh m = tube(1.0, 2.0, 17, 5);
+  const auto uses = edge_uses(m);
   const MeshEdges e = mesh_edges(m);
   ASSERT_EQ(e.vertex_count(), m.vertex_count());
   ASSERT_EQ(e.neighbor.size(), uses.size());
@@ -282,13 +289,7 @@ TEST(MeshEdgesTest, RowsMatchTheFacesEdgesOnAnyThreadCount) {
   // must still be the map's, on any thread count.
   const Mesh m = tube(1.0, 2.0, 400, 250);
   ASSERT_GT(m.vertex_count(), 4u * 16384);
-  std::map<std::pair<uint32_t, uint32_t>, uint32_t> uses;
-  for (size_t f = 0; f < m.face_count(); ++f)
-    for (int c = 0; c < 3; ++c) {
-      const uint32_t a = m.indices[3 * f + c], b = m.indices[3 * f + (c + 1) % 3];
-      ++uses[{a, b}];
-      ++uses[{b, a}];
-    }
+  const auto uses = edge_uses(m);
   std::vector<uint32_t> neighbor, faces;
   std::vector<uint32_t> offset(m.vertex_count() + 1, 0);
   for (const auto& [edge, n] : uses) {  // the map's order is the rows' order

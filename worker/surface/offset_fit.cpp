@@ -7,9 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
+#include <memory>
+#include <string>
 
 #include "core/vec3.h"
 #include "surface/offset_match.h"
@@ -120,7 +119,7 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
     entries.reserve(9 * nf + nv);
     Eigen::VectorXd rhs = Eigen::VectorXd::Zero(free_count), mass = Eigen::VectorXd::Zero(free_count);
     for (size_t g = 0; g < nf; ++g) {
-      const std::array<double, 15>& s = per_face[g];
+      const OffsetFaceSums& s = per_face[g];
       if (!(s[12] + s[13] + s[14] > 0)) continue;
       const uint32_t* u = &mesh->indices[3 * g];
       const Vector3d n = (pos(u[1]) - pos(u[0])).cross(pos(u[2]) - pos(u[0])).normalized();
