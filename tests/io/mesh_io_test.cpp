@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cfloat>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -1317,6 +1318,31 @@ TEST(FarFromOrigin, ReadInDoubleAndWrittenWithTheOriginAddedBack) {
           << "Draco, " << bits << " bits, at " << t;
     }
   }
+}
+
+TEST(FarFromOrigin, ACoordinateAtTheFloatRangesEdgeIsWrittenAsTheEdge) {
+  // A vertex read at -FLT_MAX comes back from its frame past the edge by
+  // the frame's rounding, which no reader takes: writers store the edge
+  // (a fuzzer's STL, tests/fuzz/regressions/stl); a coordinate further out
+  // stays out of range, as before.
+  Mesh mesh;
+  mesh.positions = {-1, 0, 0, 0, 1, 0, 0, 0, 1};
+  mesh.indices = {0, 1, 2};
+  mesh.scale = double(FLT_MAX) * (1 + 0x1p-26);
+  ASSERT_LT(mesh.absolute(0, 0), -double(FLT_MAX));
+  EXPECT_EQ(writable_absolute(mesh, 0, 0), -double(FLT_MAX));
+  EXPECT_EQ(absolute_positions(mesh)[0], -FLT_MAX);
+  TempDir dir;
+  for (const char* name : {"edge.ply", "edge.obj"}) {
+    ASSERT_TRUE(write_mesh(dir.file(name), mesh, nullptr).ok()) << name;
+    auto back = read_mesh(dir.file(name));
+    ASSERT_TRUE(back.ok()) << name << ": " << back.status().to_string();
+    EXPECT_NEAR(back->absolute(0, 0), -double(FLT_MAX), 1e-6 * mesh.scale) << name;  // its own frame's rounding
+    EXPECT_NEAR(back->absolute(1, 1), mesh.absolute(1, 1), 1e-6 * mesh.scale) << name;
+  }
+  Mesh beyond = mesh;
+  beyond.positions[0] = -1.5f;
+  EXPECT_EQ(writable_absolute(beyond, 0, 0), -HUGE_VAL);
 }
 
 TEST(FarFromOrigin, LosslessDracoGivesBackTheSameFloatsAndFrame) {

@@ -147,12 +147,17 @@ Mesh rebased(const Mesh& mesh, const std::array<double, 3>& origin, double scale
   return out;
 }
 
+double writable_absolute(const Mesh& mesh, size_t v, int a) {
+  const double d = mesh.absolute(v, a);
+  if (std::abs(d) <= double(FLT_MAX)) return d;
+  const double rounding = mesh.scale * 0x1p-23;  // a float's spacing in the frame, over [-1, 1]
+  if (std::abs(d) <= double(FLT_MAX) + rounding) return std::copysign(double(FLT_MAX), d);
+  return d > 0 ? HUGE_VAL : d < 0 ? -HUGE_VAL : d;  // NaN stays NaN
+}
+
 std::vector<float> absolute_positions(const Mesh& mesh) {
   std::vector<float> out(mesh.positions.size());
-  for (size_t i = 0; i < out.size(); ++i) {
-    const double d = mesh.absolute(i / 3, int(i % 3));
-    out[i] = d > double(FLT_MAX) ? HUGE_VALF : d < -double(FLT_MAX) ? -HUGE_VALF : float(d);
-  }
+  for (size_t i = 0; i < out.size(); ++i) out[i] = float(writable_absolute(mesh, i / 3, int(i % 3)));
   return out;
 }
 

@@ -116,7 +116,13 @@ Mesh mesh_from_absolute(const std::vector<double>& positions, std::vector<uint32
 // rounded to float once; colors and textures as they are).
 Mesh rebased(const Mesh& mesh, const std::array<double, 3>& origin, double scale);
 
-// Absolute coordinates as floats (origin added; beyond the float range: +-inf).
+// Vertex v's coordinate on axis a as a writer stores it. A coordinate a
+// reader took at the edge of the float range can come back past it by the
+// frame's rounding (up to scale times a float's spacing), which no reader
+// would take again: within that, the edge itself; further out, +-inf.
+double writable_absolute(const Mesh& mesh, size_t v, int a);
+
+// Absolute coordinates as floats (writable_absolute, rounded once).
 std::vector<float> absolute_positions(const Mesh& mesh);
 
 // True when float absolute coordinates hold the mesh to within 1e-6 of its

@@ -152,7 +152,7 @@ std::vector<uint8_t> encode_obj(const Mesh& mesh, const float* saliency) {
       if (as_float)
         append_float(&out, absolute[3 * i + size_t(a)]);
       else
-        append_double(&out, mesh.absolute(i, a));
+        append_double(&out, writable_absolute(mesh, i, a));
     }
     if (colors) {
       uint8_t rgb[3];

@@ -526,7 +526,7 @@ std::vector<uint8_t> encode_ply(const Mesh& mesh, const float* saliency) {
       if (as_float)
         put_f32(&out, absolute[3 * i + size_t(a)]);
       else
-        put_f64(&out, mesh.absolute(i, a));
+        put_f64(&out, writable_absolute(mesh, i, a));
     }
     if (saliency) put_f32(&out, saliency[i]);
     if (ramp) {
