@@ -22,6 +22,7 @@
 #include "core/collect_in_order.h"
 #include "core/mesh_parts.h"
 #include "core/vec3.h"
+#include "core/vertex_ranges.h"
 #include "surface/bounding_sphere.h"
 #include "surface/edge_flips.h"
 
@@ -453,17 +454,23 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       for (size_t f = r.begin(); f != r.end(); ++f)
         for (int c = 0; c < 3; ++c) {
           const uint32_t u = surface.indices[3 * f + c], w = surface.indices[3 * f + (c + 1) % 3];
-          edge_of[3 * f + c] = edges.entry(std::min(u, w), std::max(u, w));
+          const uint32_t e = edges.entry(std::min(u, w), std::max(u, w));  // UINT32_MAX: a repeated corner
+          edge_of[3 * f + c] = e;
+          on_boundary[3 * f + c] = e != UINT32_MAX && edges.faces[e] == 1;
         }
     });
+    // The corners in order, each edge's first two faces kept: by ranges of
+    // edge entries, one per thread (vertex_ranges.h), each edge's corners
+    // still met in corner order.
     std::vector<std::array<uint32_t, 2>> faces_of(edges.neighbor.size(), {UINT32_MAX, UINT32_MAX});
-    for (size_t i = 0; i < 3 * nf; ++i) {
-      const uint32_t e = edge_of[i];
-      if (e == UINT32_MAX) continue;  // a repeated corner: no edge
-      if (edges.faces[e] == 1) on_boundary[i] = 1;
-      auto& two = faces_of[e];
-      (two[0] == UINT32_MAX ? two[0] : two[1]) = uint32_t(i / 3);
-    }
+    in_vertex_ranges(faces_of.size(), [&](uint32_t lo, uint32_t hi) {
+      for (size_t i = 0; i < 3 * nf; ++i) {
+        const uint32_t e = edge_of[i];
+        if (e < lo || e >= hi) continue;  // another range's, or no edge
+        auto& two = faces_of[e];
+        (two[0] == UINT32_MAX ? two[0] : two[1]) = uint32_t(i / 3);
+      }
+    });
     // A sharp edge (faces more than 30 degrees apart, the flips' crease): its
     // length counts towards the cells of both its ends; in (u, w) order. The
     // test per edge in parallel, the sums in edge order (the same bits on any
@@ -476,14 +483,18 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
           sharp[e] = face_normal(faces_of[e][0]).dot(face_normal(faces_of[e][1])) < kCreaseCos;
         }
     });
-    for (uint32_t u = 0; u < nv; ++u)
-      for (uint32_t e = edges.offset[u]; e < edges.offset[u + 1]; ++e) {
-        if (!sharp[e]) continue;
-        const uint32_t w = edges.neighbor[e];
-        const double len = (eig(load3d(surface.positions.data(), u)) - eig(load3d(surface.positions.data(), w))).norm();
-        if (label[u] != UINT32_MAX) sharp_length[label[u]] += len;
-        if (label[w] != UINT32_MAX && label[w] != label[u]) sharp_length[label[w]] += len;
-      }
+    // The sharp entries in row order (few: a scan's creases, a CAD model's
+    // edges), then their sums.
+    const std::vector<std::pair<uint32_t, uint32_t>> sharp_edges = collect_in_order<std::pair<uint32_t, uint32_t>>(
+        nv, [&](size_t u, std::vector<std::pair<uint32_t, uint32_t>>* out) {
+          for (uint32_t e = edges.offset[u]; e < edges.offset[u + 1]; ++e)
+            if (sharp[e]) out->push_back({uint32_t(u), edges.neighbor[e]});
+        }, 4096);
+    for (const auto& [u, w] : sharp_edges) {
+      const double len = (eig(load3d(surface.positions.data(), u)) - eig(load3d(surface.positions.data(), w))).norm();
+      if (label[u] != UINT32_MAX) sharp_length[label[u]] += len;
+      if (label[w] != UINT32_MAX && label[w] != label[u]) sharp_length[label[w]] += len;
+    }
   }
   std::vector<char> boundary_cell(count, 0);
 
@@ -563,9 +574,17 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 4096), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t f = r.begin(); f != r.end(); ++f) face_plane(f, &normal[f], &face_area[f]);
     });
-    for (size_t f = 0; f < nf; ++f)  // each cell's faces, in face order
-      if (face_area[f] > 0)
-        for_each_cell_of(&surface.indices[3 * f], [&](uint32_t cell) { cell_faces[cell].face.push_back(uint32_t(f)); });
+    // Each cell's faces, in face order: by ranges of cells, one per thread.
+    in_vertex_ranges(
+        count,
+        [&](uint32_t lo, uint32_t hi) {
+          for (size_t f = 0; f < nf; ++f)
+            if (face_area[f] > 0)
+              for_each_cell_of(&surface.indices[3 * f], [&](uint32_t cell) {
+                if (cell >= lo && cell < hi) cell_faces[cell].face.push_back(uint32_t(f));
+              });
+        },
+        256);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 16), [&](const tbb::blocked_range<uint32_t>& r) {
       for (uint32_t cell = r.begin(); cell != r.end(); ++cell)
         for (uint32_t f : cell_faces[cell].face) add_face(f, normal[f], face_area[f], cell);
