@@ -250,18 +250,25 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const Adjacency& adj, co
   // the dual drops and which costs nothing but that vertex: a rod's cap.)
   std::vector<char> in_triangle(count, 0);
   for (const auto& t : tris) in_triangle[t[0]] = in_triangle[t[1]] = in_triangle[t[2]] = 1;
+  // Counts, so in any order: by ranges of cells, one per thread.
   std::vector<int64_t> euler(count, 0);
-  for (size_t v = 0; v < label.size(); ++v)
-    if (label[v] != UINT32_MAX) ++euler[label[v]];
-  for (uint32_t u = 0; u < uint32_t(label.size()); ++u)
-    if (label[u] != UINT32_MAX)
-      for (const uint32_t* w = adj.begin(u); w != adj.end(u); ++w)
-        if (*w > u && label[*w] == label[u]) --euler[label[u]];
-  for (size_t f = 0; f < mesh.face_count(); ++f) {
-    const uint32_t* t = &mesh.indices[3 * f];
-    const uint32_t c = label[t[0]];
-    if (c != UINT32_MAX && label[t[1]] == c && label[t[2]] == c) ++euler[c];
-  }
+  in_vertex_ranges(
+      count,
+      [&](uint32_t lo, uint32_t hi) {
+        for (uint32_t u = 0; u < uint32_t(label.size()); ++u) {
+          const uint32_t c = label[u];
+          if (c < lo || c >= hi) continue;
+          ++euler[c];
+          for (const uint32_t* w = adj.begin(u); w != adj.end(u); ++w)
+            if (*w > u && label[*w] == c) --euler[c];
+        }
+        for (size_t f = 0; f < mesh.face_count(); ++f) {
+          const uint32_t* t = &mesh.indices[3 * f];
+          const uint32_t c = label[t[0]];
+          if (c >= lo && c < hi && label[t[1]] == c && label[t[2]] == c) ++euler[c];
+        }
+      },
+      256);
   for (uint32_t c = 0; c < count; ++c)
     if (euler[c] < 1 && !in_triangle[c]) bad[c] = 1;
   std::vector<uint32_t> out;
@@ -436,13 +443,18 @@ SlabSchedule slab_schedule(const std::vector<Vec3d>& x, const Adjacency& adj, co
 
 std::vector<double> vertex_areas(const Mesh& mesh) {
   std::vector<double> area(mesh.vertex_count(), 0.0);
-  for (size_t f = 0; f < mesh.face_count(); ++f) {
-    const uint32_t* t = &mesh.indices[3 * f];
-    const Vec3d a = load3d(mesh.positions.data(), t[0]), b = load3d(mesh.positions.data(), t[1]),
-                c = load3d(mesh.positions.data(), t[2]);
-    const double third = norm(cross(b - a, c - a)) / 6.0;
-    for (int k = 0; k < 3; ++k) area[t[k]] += third;
-  }
+  in_vertex_ranges(mesh.vertex_count(), [&](uint32_t lo, uint32_t hi) {  // each vertex's faces in face order
+    for (size_t f = 0; f < mesh.face_count(); ++f) {
+      const uint32_t* t = &mesh.indices[3 * f];
+      const bool mine[3] = {t[0] >= lo && t[0] < hi, t[1] >= lo && t[1] < hi, t[2] >= lo && t[2] < hi};
+      if (!mine[0] && !mine[1] && !mine[2]) continue;
+      const Vec3d a = load3d(mesh.positions.data(), t[0]), b = load3d(mesh.positions.data(), t[1]),
+                  c = load3d(mesh.positions.data(), t[2]);
+      const double third = norm(cross(b - a, c - a)) / 6.0;
+      for (int k = 0; k < 3; ++k)
+        if (mine[k]) area[t[k]] += third;
+    }
+  });
   return area;
 }
 
@@ -690,18 +702,36 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     on_loop.clear();
     std::fill(loop_clusters.begin(), loop_clusters.end(), 0);
     loops_of_cluster.assign(clusters_now, 0);
+    // Each cell's sums over its elements in element order, by ranges of
+    // cells, one per thread (core/vertex_ranges.h); the constant's terms in
+    // parallel and their sum in element order: the bits of one loop.
+    in_vertex_ranges(
+        clusters_now,
+        [&](uint32_t lo, uint32_t hi) {
+          for (uint32_t v = 0; v < nv; ++v) {
+            const uint32_t l = label[v];
+            if (l < lo || l >= hi) continue;  // another range's, or unlabelled
+            Cluster& c = clusters[l];
+            c.m += mass[v];
+            c.s = c.s + x[v] * mass[v];
+            c.t = c.t + y[v] * mass[v];
+            c.n = c.n + vertex_normal[v] * mass[v];
+            ++c.size;
+          }
+        },
+        256);
+    std::vector<double> term(nv);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 8192), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t v = r.begin(); v != r.end(); ++v)
+        term[v] = label[v] == UINT32_MAX ? 0.0 : mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
+    });
     constant = 0;
-    for (uint32_t v = 0; v < nv; ++v) {
-      if (label[v] == UINT32_MAX) continue;
-      Cluster& c = clusters[label[v]];
-      c.m += mass[v];
-      c.s = c.s + x[v] * mass[v];
-      c.t = c.t + y[v] * mass[v];
-      c.n = c.n + vertex_normal[v] * mass[v];
-      ++c.size;
-      constant += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
-      loop_add(v, label[v]);
-    }
+    for (uint32_t v = 0; v < nv; ++v)
+      if (label[v] != UINT32_MAX) constant += term[v];
+    // The loops' counts (integers: any order).
+    for (const std::vector<uint32_t>& loop : loops)
+      for (uint32_t v : loop)
+        if (label[v] != UINT32_MAX) loop_add(v, label[v]);
   };
   rebuild();
   std::vector<double> energy = {total_energy(clusters, constant)};
