@@ -575,18 +575,39 @@ TEST(SurfaceCvtTest, WindowAndOpenEndsStayOpen) {
 
 // The dual's quadrics and centroids summed per cell in parallel give the
 // bits of the one loop over the faces (boundary planes and creases included:
-// a box with a window, and an open tube).
+// a box with a window, and an open tube), on one thread and on three (the
+// cells' faces then gathered by three ranges of cells).
 TEST(SurfaceCvtTest, PerCellSumsGiveTheOneLoopsBits) {
   const Mesh window = box(1, 1, 1, 12, [](int face, int i, int j) { return face == 1 && i >= 4 && i < 8 && j >= 4 && j < 8; });
   for (const Mesh& input : {window, tube(0.5, 1.0, 48, 24)}) {
     ClusterMeshOptions loop, per_cell;
     loop.per_cell_sums = 0;
     per_cell.per_cell_sums = 1;
-    const Mesh a = remesh(input, 700, DensityMode::kCurvature, nullptr, loop);
-    const Mesh b = remesh(input, 700, DensityMode::kCurvature, nullptr, per_cell);
-    ASSERT_GT(a.vertex_count(), 600u);
-    EXPECT_EQ(a.positions, b.positions);
-    EXPECT_EQ(a.indices, b.indices);
+    const Mesh a = remesh(input, 900, DensityMode::kCurvature, nullptr, loop);
+    ASSERT_GT(a.vertex_count(), 800u);
+    for (int threads : {1, 3}) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+      const Mesh b = remesh(input, 900, DensityMode::kCurvature, nullptr, per_cell);
+      EXPECT_EQ(a.positions, b.positions) << threads << " threads";
+      EXPECT_EQ(a.indices, b.indices) << threads << " threads";
+    }
+  }
+}
+
+// Each vertex's third of its faces' areas, summed in face order, the same
+// bits on any thread count (the sums run by vertex ranges).
+TEST(SurfaceCvtTest, VertexAreasAreTheFaceLoopsSumsOnAnyThreadCount) {
+  const Mesh input = torus(1.0, 0.3, 240, 240);  // 57,600 vertices: up to three ranges
+  std::vector<double> reference(input.vertex_count(), 0.0);
+  for (size_t f = 0; f < input.face_count(); ++f) {
+    const uint32_t* t = &input.indices[3 * f];
+    const Vec3d a = load3d(input.positions.data(), t[0]), b = load3d(input.positions.data(), t[1]),
+                c = load3d(input.positions.data(), t[2]);
+    for (int k = 0; k < 3; ++k) reference[t[k]] += norm(cross(b - a, c - a)) / 6.0;
+  }
+  for (int threads : {1, 2, 3, 8}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    EXPECT_EQ(vertex_areas(input), reference) << threads << " threads";
   }
 }
 
