@@ -357,6 +357,46 @@ TEST(RepairSoupTest, OrientedSoupKeepsItsFacesAndNestedShellsStillTurn) {
   EXPECT_NEAR(analyze(mesh).signed_volume, outer * (1 - 0.125), 1e-3 * outer);  // the inner shell faces inward
 }
 
+// A shell whose faces all wind inward (a dual made from an input that winds
+// inward) is turned whole, without the self-intersection test and ray casts:
+// each face comes back reversed, none other changes, and the volume is the
+// outward shell's. A UV sphere squashed flat across one axis (a closed
+// surface that crosses no face) and a round one.
+TEST(RepairSoupTest, AnInsideOutShellComesBackWithEveryFaceReversed) {
+  for (const float squash : {1.0f, 0.05f}) {
+    std::vector<float> points;
+    std::vector<uint32_t> faces;
+    append_uv_sphere(0, 24, 14, &points, &faces);
+    for (size_t i = 2; i < points.size(); i += 3) points[i] *= squash;
+    std::vector<uint32_t> inside_out = faces;
+    for (size_t f = 0; f < faces.size() / 3; ++f) std::swap(inside_out[3 * f + 1], inside_out[3 * f + 2]);
+    auto canonical = [](const uint32_t* t) {
+      const int k = t[0] < t[1] ? (t[0] < t[2] ? 0 : 2) : (t[1] < t[2] ? 1 : 2);
+      return std::array<uint32_t, 3>{t[k], t[(k + 1) % 3], t[(k + 2) % 3]};
+    };
+    Mesh outward, turned;
+    std::vector<uint32_t> source_outward, source_turned;
+    ASSERT_TRUE(repair_triangle_soup(points.data(), points.size() / 3, faces.data(), faces.size() / 3, {}, &outward,
+                                     &source_outward, nullptr)
+                    .ok());
+    ASSERT_TRUE(repair_triangle_soup(points.data(), points.size() / 3, inside_out.data(), inside_out.size() / 3, {},
+                                     &turned, &source_turned, nullptr)
+                    .ok());
+    std::set<std::array<uint32_t, 3>> in, out;
+    for (size_t f = 0; f < faces.size() / 3; ++f) in.insert(canonical(&faces[3 * f]));
+    for (size_t f = 0; f < turned.face_count(); ++f) {
+      const uint32_t t[3] = {source_turned[turned.indices[3 * f]], source_turned[turned.indices[3 * f + 1]],
+                             source_turned[turned.indices[3 * f + 2]]};
+      out.insert(canonical(t));
+    }
+    EXPECT_EQ(in, out) << "squash " << squash;
+    EXPECT_EQ(turned.positions, outward.positions) << "squash " << squash;
+    EXPECT_EQ(turned.indices, outward.indices) << "squash " << squash;
+    EXPECT_GT(analyze(turned).signed_volume, 3.0 * squash) << "squash " << squash;
+    EXPECT_EQ(inward_faces(turned), 0u) << "squash " << squash;
+  }
+}
+
 // Regression (heap overflow seen on real models): removing the long "bridge"
 // faces leaves removed halfedges inside the mesh, so the halfedge indices of
 // the parts after them run past number_of_halfedges(). The hole of the last

@@ -194,15 +194,23 @@ bool oriented_manifold_soup(const std::vector<Triangle>& soup, size_t n) {
   return true;
 }
 
-// One connected component whose faces wind outward (positive signed volume
-// about its corners' centroid, as orient_open_components measures it): then
-// neither orientation below would change a face, and neither the
-// self-intersection test nor the ray casts are needed.
-bool one_outward_component(SurfaceMesh& sm) {
+// How a mesh of one connected component winds: by its signed volume about
+// its corners' centroid, as orient_open_components measures it.
+enum class Winding { kOutward, kInward, kUnknown };
+
+// kOutward: one component winding outward (positive volume); neither
+// orientation in repair_soup would change a face, and neither the
+// self-intersection test nor the ray casts are needed. kInward: one
+// component winding inward (an input whose faces wind inward gives a dual
+// that does): both orientations would turn every face (a closed surface
+// that does not cross itself has one volume from any origin, and
+// orient_open_components measures this one), so the faces are turned
+// without either. kUnknown: several components, or a volume of zero.
+Winding one_component_winding(SurfaceMesh& sm) {
   auto component = sm.add_property_map<FaceIndex, size_t>("f:vpr_one", 0).first;
   const size_t count = PMP::connected_components(sm, component);
   sm.remove_property_map(component);
-  if (count != 1) return false;
+  if (count != 1) return Winding::kUnknown;
   std::vector<FaceIndex> faces(sm.faces().begin(), sm.faces().end());
   std::array<double, 4> c = {0, 0, 0, 0};
   for (FaceIndex f : faces)
@@ -213,7 +221,8 @@ bool one_outward_component(SurfaceMesh& sm) {
       c[2] += p.z();
       c[3] += 1;
     }
-  return signed_volume(sm, faces, Point(c[0] / c[3], c[1] / c[3], c[2] / c[3])) > 0;
+  const double volume = signed_volume(sm, faces, Point(c[0] / c[3], c[1] / c[3], c[2] / c[3]));
+  return volume > 0 ? Winding::kOutward : volume < 0 ? Winding::kInward : Winding::kUnknown;
 }
 
 double median_edge_length(const SurfaceMesh& sm) {
@@ -304,8 +313,11 @@ Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points
   // can retry forever (the pipeline fuzzer found a 101-triangle soup that
   // held it for minutes). Such meshes, and open ones, get each component
   // outward by its own signed volume instead.
-  if (one_outward_component(sm)) {
+  const Winding winding = one_component_winding(sm);
+  if (winding == Winding::kOutward) {
     // already outward: nothing to turn
+  } else if (winding == Winding::kInward) {
+    PMP::reverse_face_orientations(sm);
   } else if (CGAL::is_closed(sm) && !PMP::does_self_intersect(sm)) {
     PMP::orient_to_bound_a_volume(sm);  // outward; inner shells of nested components inward
   } else {
