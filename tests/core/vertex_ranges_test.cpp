@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <atomic>
 #include <cmath>
@@ -47,6 +48,22 @@ TEST(VertexRanges, ScatteredSumsAreTheSerialLoopsOnAnyThreadCount) {
     EXPECT_EQ(once, nv) << "the ranges cover every vertex once";
     EXPECT_EQ(sum, serial) << threads << " threads";
   }
+}
+
+// Each range reads the whole loop: on a host of 16 cores, 8 ranges at most.
+TEST(VertexRanges, ManyThreadsGetAtMostTheRangeCap) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 16);
+  tbb::task_arena sixteen(16);
+  std::atomic<int> ranges{0};
+  std::atomic<size_t> covered{0};
+  sixteen.execute([&] {
+    in_vertex_ranges(400000, [&](uint32_t lo, uint32_t hi) {
+      ++ranges;
+      covered += hi - lo;
+    });
+  });
+  EXPECT_EQ(ranges.load(), int(kMaxVertexRanges));
+  EXPECT_EQ(covered.load(), 400000u);
 }
 
 TEST(VertexRanges, FewVerticesAreOneRange) {

@@ -5,7 +5,8 @@
 // loop's order (the same bits on any thread count), each thread reads the
 // faces in order, and the scattered writes, which were the serial loop's
 // cost, are shared out. For scans of every face of a large mesh (vertex
-// normals, edge rows); below min_range vertices a range, one thread.
+// normals, edge rows); below min_range vertices a range, one thread. The
+// "vertices" may be any items a loop scatters into: edge entries, cells.
 #pragma once
 
 #include <tbb/global_control.h>
@@ -18,13 +19,21 @@
 
 namespace vpr {
 
+// Every range reads the whole loop, so the ranges are at most
+// kMaxVertexRanges: past that the repeated reads cost more processor time
+// than the scatter they share out, which matters when concurrent jobs keep
+// every core busy (one range per core of a 16-core host: 16 reads of the
+// faces for one serial loop's writes).
+constexpr size_t kMaxVertexRanges = 8;
+
 // body(lo, hi): the loop, applying only the updates of vertices in [lo, hi).
 template <class Body>
 void in_vertex_ranges(size_t vertex_count, Body&& body, size_t min_range = 16384) {
   const size_t threads =
       std::min<size_t>(size_t(tbb::this_task_arena::max_concurrency()),
                        tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
-  const size_t ranges = std::max<size_t>(1, std::min<size_t>(threads, vertex_count / min_range));
+  const size_t ranges =
+      std::max<size_t>(1, std::min<size_t>({threads, vertex_count / min_range, kMaxVertexRanges}));
   tbb::parallel_for(size_t(0), ranges, [&](size_t r) {
     body(uint32_t(vertex_count * r / ranges), uint32_t(vertex_count * (r + 1) / ranges));
   });
