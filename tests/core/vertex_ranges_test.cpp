@@ -66,6 +66,32 @@ TEST(VertexRanges, ManyThreadsGetAtMostTheRangeCap) {
   EXPECT_EQ(covered.load(), 400000u);
 }
 
+// Four jobs at once on 16 threads: each splits its loops by its share, 4.
+TEST(VertexRanges, ConcurrentJobsSplitByTheirShareOfTheThreads) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 16);
+  tbb::task_arena sixteen(16);
+  auto count_ranges = [&] {
+    std::atomic<int> ranges{0};
+    std::atomic<size_t> covered{0};
+    sixteen.execute([&] {
+      in_vertex_ranges(400000, [&](uint32_t lo, uint32_t hi) {
+        ++ranges;
+        covered += hi - lo;
+      });
+    });
+    EXPECT_EQ(covered.load(), 400000u);
+    return ranges.load();
+  };
+  EXPECT_EQ(running_jobs(), 1) << "outside a job a loop counts as one";
+  {
+    const RunningJob jobs[4];
+    EXPECT_EQ(running_jobs(), 4);
+    EXPECT_EQ(count_ranges(), 4);
+  }
+  EXPECT_EQ(running_jobs(), 1) << "the jobs are uncounted when they end";
+  EXPECT_EQ(count_ranges(), int(kMaxVertexRanges));
+}
+
 TEST(VertexRanges, FewVerticesAreOneRange) {
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 8);
   std::vector<std::pair<uint32_t, uint32_t>> seen;

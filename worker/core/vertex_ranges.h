@@ -17,13 +17,16 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "core/running_jobs.h"
+
 namespace vpr {
 
 // Every range reads the whole loop, so the ranges are at most
 // kMaxVertexRanges: past that the repeated reads cost more processor time
 // than the scatter they share out, which matters when concurrent jobs keep
 // every core busy (one range per core of a 16-core host: 16 reads of the
-// faces for one serial loop's writes).
+// faces for one serial loop's writes). For the same reason a job gets its
+// share of the threads when several run (core/running_jobs.h).
 constexpr size_t kMaxVertexRanges = 8;
 
 // body(lo, hi): the loop, applying only the updates of vertices in [lo, hi).
@@ -31,7 +34,8 @@ template <class Body>
 void in_vertex_ranges(size_t vertex_count, Body&& body, size_t min_range = 16384) {
   const size_t threads =
       std::min<size_t>(size_t(tbb::this_task_arena::max_concurrency()),
-                       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+                       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)) /
+      size_t(running_jobs());
   const size_t ranges =
       std::max<size_t>(1, std::min<size_t>({threads, vertex_count / min_range, kMaxVertexRanges}));
   tbb::parallel_for(size_t(0), ranges, [&](size_t r) {

@@ -25,6 +25,7 @@
 
 #include "color_transfer.h"
 #include "core/mesh_parts.h"
+#include "core/running_jobs.h"
 #include "debug_output.h"
 #include "eval/visual_similarity.h"
 #include "job_device.h"
@@ -1232,6 +1233,7 @@ StatusOr<std::vector<uint32_t>> level_counts(const std::vector<LevelTarget>& lev
 
 Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, const std::vector<LevelTarget>& levels,
                            const LevelCallback& on_level) {
+  const RunningJob counted;  // loops split by the job's share of the threads (core/running_jobs.h)
   VPR_RETURN_IF_ERROR(check_levels(levels));
   PipelineOptions checked = options;
   checked.target_vertices = kMinTargetVertices;  // each level's count is checked by level_counts
