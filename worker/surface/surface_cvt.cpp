@@ -19,6 +19,7 @@
 #include "core/vec3.h"
 #include "surface/cell_growth.h"
 #include "surface/cvt_sweep_kernels.h"
+#include "surface/edge_parts.h"
 #include "surface/edge_smoothing.h"
 #include "surface/morton_order.h"
 
@@ -494,29 +495,15 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   VPR_RETURN_IF_ERROR(
       anisotropic_offsets(mesh, adj, x, vertex_normal, count, options.anisotropy, options.device_smoothing, &y));
 
-  // Connected parts (elements with mass only; isolated vertices have none).
-  std::vector<uint32_t> part(nv, UINT32_MAX);
-  std::vector<double> part_mass;
-  std::vector<std::vector<uint32_t>> part_elements;
-  for (uint32_t s = 0; s < nv; ++s) {
-    if (part[s] != UINT32_MAX || adj.degree(s) == 0) continue;
-    const uint32_t id = uint32_t(part_mass.size());
-    part_mass.push_back(0);
-    part_elements.emplace_back();
-    std::vector<uint32_t> stack = {s};
-    part[s] = id;
-    while (!stack.empty()) {
-      const uint32_t v = stack.back();
-      stack.pop_back();
-      part_mass[id] += mass[v];
-      part_elements[id].push_back(v);
-      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w)
-        if (part[*w] == UINT32_MAX) {
-          part[*w] = id;
-          stack.push_back(*w);
-        }
-    }
-  }
+  // Connected parts (elements with mass only; isolated vertices have none),
+  // numbered by lowest element (edge_parts.h); each part's mass summed in
+  // element order.
+  EdgeParts found = edge_parts(adj);
+  const std::vector<uint32_t>& part = found.part;
+  const std::vector<std::vector<uint32_t>>& part_elements = found.elements;
+  std::vector<double> part_mass(part_elements.size(), 0.0);
+  for (uint32_t v = 0; v < nv; ++v)
+    if (part[v] != UINT32_MAX) part_mass[part[v]] += mass[v];
   const size_t parts = part_mass.size();
   size_t elements = 0;
   for (const auto& e : part_elements) elements += e.size();
