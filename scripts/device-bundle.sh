@@ -58,6 +58,9 @@ for b in "${bins[@]}"; do ldd "$b"; done | awk '/=> \//{print $1, $3}' | sort -u
     [[ "$name" =~ $skip ]] || cp -L "$path" .bundle/lib/
   done
 for m in $MODELS; do cp "../shared/models/$m" .bundle/models/; done
+# The commit the binaries were built from (the device's copy of the tree may
+# name another): "+" when the tree had changes not committed.
+{ git rev-parse --short HEAD; git diff --quiet HEAD -- . ':!.pack' ':!.gl' || echo "+"; } | paste -sd '' >.bundle/commit
 # The tool carries at most 64 MiB with the working tree: send it compressed.
 mkdir -p .pack && tar -czf .pack/bundle.tar.gz .bundle
 du -sh .bundle .pack/bundle.tar.gz | sed 's/^/device-bundle: /'

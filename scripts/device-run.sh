@@ -28,7 +28,7 @@ ln -sfn "$PWD/.bundle/models" /work/shared/models
 ln -sfn "$PWD/.bundle/build" build/device
 
 { date -u +%FT%TZ; nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader; nproc;
-  git log -1 --format=%h 2>/dev/null || true; } >"$OUT/device.txt" 2>&1
+  echo "bundle built at $(cat .bundle/commit 2>/dev/null || echo 'an unknown commit')"; } >"$OUT/device.txt" 2>&1
 cat "$OUT/device.txt"
 
 if [ "$mode" = tests ] || [ "$mode" = all ]; then
