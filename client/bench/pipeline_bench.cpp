@@ -23,6 +23,7 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -300,13 +301,24 @@ int main(int argc, char** argv) {
           for (int i = 0; i < c; ++i)
             (void)run_job(in, device, renderers[i].get(), args);  // warm each thread's renderer
           std::atomic<int> next{0}, failed{0};
+          std::mutex lock;
+          std::map<std::string, double> stage_sum;  // over the jobs that finished
           const auto start = Clock::now();
           const double cpu_start = cpu_seconds();
           std::vector<std::thread> pool;
           for (int i = 0; i < c; ++i)
             pool.emplace_back([&, i] {
-              while (next.fetch_add(1) < jobs)
-                if (!run_job(in, device, renderers[i].get(), args).ok()) ++failed;
+              while (next.fetch_add(1) < jobs) {
+                auto t = run_job(in, device, renderers[i].get(), args);
+                if (!t.ok()) {
+                  ++failed;
+                  continue;
+                }
+                const std::lock_guard<std::mutex> hold(lock);
+                stage_sum["decode"] += t->decode;
+                stage_sum["encode"] += t->encode;
+                for (const auto& [name, ms] : t->stage) stage_sum[name] += ms;
+              }
             });
           for (auto& t : pool) t.join();
           const double wall = ms_since(start) / 1000.0;
@@ -316,6 +328,12 @@ int main(int argc, char** argv) {
           std::printf("| %s | %s | %d | %d | %.2f | %.2f | %.2f | %.3f |\n", in.name.c_str(), device_label(device), c,
                       jobs, wall, rate, rate1 > 0 ? rate / rate1 : 0, cpu / jobs);
           std::fflush(stdout);
+          // Which stages stretch when the jobs share the machine (stderr:
+          // the table above stays one row per run).
+          const int done = jobs - failed;
+          std::fprintf(stderr, "%s on %s, %d at once, mean stage ms:", in.name.c_str(), device_label(device), c);
+          for (const auto& [name, ms] : stage_sum) std::fprintf(stderr, " %s %.1f", name.c_str(), done > 0 ? ms / done : 0);
+          std::fprintf(stderr, "\n");
         }
       }
   }
