@@ -333,7 +333,7 @@ int main(int argc, char** argv) {
           const int done = jobs - failed;
           std::fprintf(stderr, "%s on %s, %d at once, mean stage ms:", in.name.c_str(), device_label(device), c);
           for (const auto& [name, ms] : stage_sum) std::fprintf(stderr, " %s %.1f", name.c_str(), done > 0 ? ms / done : 0);
-          std::fprintf(stderr, "\n");
+          std::fprintf(stderr, "; render (one thread's last): %s\n", renderers[0]->last_breakdown().c_str());
         }
       }
   }
