@@ -99,6 +99,7 @@ void destroy_framebuffer(const Functions& gl, Framebuffer* fb);
 // Wall times of one render_views call, milliseconds.
 struct RenderBreakdown {
   double prep = 0, upload = 0, draw = 0, readback = 0, convert = 0;
+  double bind = 0;  // making the context current and releasing it (the EGL renderer's)
   std::string to_string() const;
 };
 

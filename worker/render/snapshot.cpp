@@ -235,9 +235,10 @@ bool software_rasterizer(const Functions& gl) {
 }
 
 std::string RenderBreakdown::to_string() const {
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "prep %.1f ms, upload %.1f ms, draw %.1f ms, readback %.1f ms, convert %.1f ms", prep,
-                upload, draw, readback, convert);
+  char buf[192];
+  std::snprintf(buf, sizeof buf,
+                "prep %.1f ms, upload %.1f ms, draw %.1f ms, readback %.1f ms, convert %.1f ms, bind %.1f ms", prep,
+                upload, draw, readback, convert, bind);
   return buf;
 }
 

@@ -6,6 +6,7 @@
 #include <EGL/eglext.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <mutex>
 #include <string>
@@ -115,6 +116,9 @@ class EglRenderer final : public Renderer {
   // calling thread for the duration of the call and released afterwards.
   Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out) override {
     std::lock_guard<std::mutex> lock(mutex_);
+    using Clock = std::chrono::steady_clock;
+    auto ms_since = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
+    const auto start = Clock::now();
     int width = 0, height = 0;
     max_view_size(views, &width, &height);
     Status s;
@@ -124,8 +128,11 @@ class EglRenderer final : public Renderer {
     } else {
       s = ensure_pbuffer(width, height);
     }
+    const double bind = ms_since(start);
     if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_, draw_path_);
+    const auto released = Clock::now();
     release();
+    breakdown_.bind = bind + ms_since(released);
     return s;
   }
 
