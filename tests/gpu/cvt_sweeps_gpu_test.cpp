@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "surface/cvt_sweeps.h"
 #include "surface/edge_smoothing.h"
 #include "surface/surface_cvt.h"
+#include "surface/surface_density.h"
 #include "test_meshes.h"
 
 namespace vpr {
@@ -96,6 +98,37 @@ TEST_F(CvtSweepsGpu, SmoothingPassesEqualTheCpuBitForBit) {
   EXPECT_EQ(cuda::smooth_over_edges(edges, 1, &wrong, gpu_).code(), StatusCode::kInvalidArgument);
 }
 
+// The density's passes (surface_density.h): a float per vertex, summed in
+// double, the same bits on either twin; a failing device leaves the host's.
+TEST_F(CvtSweepsGpu, ScalarsSmoothAsOnTheCpuBitForBit) {
+  auto bunny = read_mesh("../shared/models/bunny.obj");
+  ASSERT_TRUE(bunny.ok()) << bunny.status().to_string();
+  const MeshEdges edges = mesh_edges(*bunny);
+  std::vector<float> values(bunny->vertex_count());
+  for (size_t v = 0; v < values.size(); ++v)  // a rough field: every digit of the sums matters
+    values[v] = float(std::sin(37.0 * bunny->positions[3 * v]) * std::cos(53.0 * bunny->positions[3 * v + 1]));
+  for (int passes : {1, 16}) {
+    std::vector<float> cpu_values = values, gpu_values = values;
+    ASSERT_TRUE(cpu::smooth_over_edges(edges, passes, &cpu_values).ok());
+    const Status s = cuda::smooth_over_edges(edges, passes, &gpu_values, gpu_);
+    ASSERT_TRUE(s.ok()) << s.to_string();
+    EXPECT_EQ(cpu_values, gpu_values) << passes << " passes";
+    EXPECT_NE(cpu_values, values) << "the passes changed something";
+  }
+  // Through the density's entry point: one channel of two, on the device.
+  std::vector<float> channels(2 * values.size()), host_channels;
+  for (size_t v = 0; v < values.size(); ++v) channels[2 * v] = -1, channels[2 * v + 1] = values[v];
+  host_channels = channels;
+  const bool on_device = smooth_over_edges(edges, 16, 2, 1, &channels, [&](const MeshEdges& e, int p, std::vector<float>* x) {
+    return cuda::smooth_over_edges(e, p, x, gpu_);
+  });
+  EXPECT_TRUE(on_device);
+  EXPECT_FALSE(smooth_over_edges(edges, 16, 2, 1, &host_channels));
+  EXPECT_EQ(channels, host_channels);
+  std::vector<float> wrong(3);
+  EXPECT_EQ(cuda::smooth_over_edges(edges, 1, &wrong, gpu_).code(), StatusCode::kInvalidArgument);
+}
+
 TEST_F(CvtSweepsGpu, CellsGrowAsOnTheCpuBitForBit) {
   auto bunny = read_mesh("../shared/models/bunny.obj");
   ASSERT_TRUE(bunny.ok()) << bunny.status().to_string();
@@ -157,6 +190,16 @@ TEST_F(CvtSweepsGpu, ATinyBudgetIsResourceExhaustedAndReleasesEverything) {
   std::vector<Vec3d> values(sphere.vertex_count());
   EXPECT_EQ(cuda::smooth_over_edges(edges, 3, &values, ctx).code(), StatusCode::kResourceExhausted);
   EXPECT_EQ(tiny.used.load(), 0u);
+  // The density's passes: refused there, done on the host instead.
+  std::vector<float> density(2 * sphere.vertex_count(), 1.0f), host;
+  for (size_t v = 0; v < sphere.vertex_count(); ++v) density[2 * v + 1] = float(v % 7);
+  host = density;
+  EXPECT_FALSE(smooth_over_edges(edges, 3, 2, 1, &density, [&](const MeshEdges& e, int p, std::vector<float>* x) {
+    return cuda::smooth_over_edges(e, p, x, ctx);
+  }));
+  EXPECT_EQ(tiny.used.load(), 0u);
+  smooth_over_edges(edges, 3, 2, 1, &host);
+  EXPECT_EQ(density, host) << "the host's passes after the device's refusal";
 }
 
 }  // namespace

@@ -638,8 +638,18 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, refine_max_edge(spacing_out, options),
                                                          refine_limit(input, options.target_vertices, options)));
           }
-          // Over about two output spacings (elements are a quarter of one apart).
-          smooth_over_edges(refined.edges, 16, 2, 1, &refined.value);
+          // Over about two output spacings (elements are a quarter of one
+          // apart); on the GPU when the job has one (the same bits).
+          ScalarEdgeSmoothing smooth_twin;
+#ifdef VPR_HAVE_CUDA
+          if (device.on_gpu()) {
+            const ExecContext& c = device.context();
+            smooth_twin = [&c](const MeshEdges& edges, int passes, std::vector<float>* values) {
+              return cuda::smooth_over_edges(edges, passes, values, c);
+            };
+          }
+#endif
+          const bool smoothed_on_gpu = smooth_over_edges(refined.edges, 16, 2, 1, &refined.value, smooth_twin);
           // A soup: most edges have one face even after welding.
           const size_t entries = refined.edges.neighbor.size();  // each edge twice
           const size_t single = size_t(std::count(refined.edges.faces.begin(), refined.edges.faces.end(), 1u)) / 2;
@@ -654,6 +664,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           note = std::string(density_mode_name(options.density)) + " density; " +
                  std::to_string(refined.mesh.vertex_count()) + " surface elements" +
                  (made_ahead ? " (refined ahead, beside the stages before)" : "") +
+                 (smoothed_on_gpu ? "; smoothed on the GPU" : "") +
                  (soup ? "; a polygon soup: the paper's back half follows" : "");
           if (!refined.pinch_copies.empty())
             note +=

@@ -1,5 +1,6 @@
-// GPU twin of the edge smoothing (edge_smoothing.h): one thread a vertex a
-// pass, two buffers in turn; the arithmetic of smoothed_vector.
+// GPU twins of the edge smoothing (edge_smoothing.h): one thread a vertex a
+// pass, two buffers in turn; the arithmetic of smoothed_vector and
+// smoothed_scalar.
 #include <algorithm>
 #include <string>
 #include <utility>
@@ -17,9 +18,14 @@ __global__ void smooth_kernel(const uint32_t* offset, const uint32_t* neighbor, 
   if (v < n) next[v] = smoothed_vector(offset, neighbor, now, v);
 }
 
-}  // namespace
+__global__ void smooth_kernel(const uint32_t* offset, const uint32_t* neighbor, const float* now, uint32_t n,
+                              float* next) {
+  const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v < n) next[v] = smoothed_scalar(offset, neighbor, now, v);
+}
 
-Status smooth_over_edges(const MeshEdges& edges, int passes, std::vector<Vec3d>* values, const ExecContext& ctx) {
+template <class T>
+Status smooth(const MeshEdges& edges, int passes, std::vector<T>* values, const ExecContext& ctx) {
   const size_t nv = edges.vertex_count();
   if (values->size() != nv)
     return invalid_argument("edge smoothing: " + std::to_string(values->size()) + " values for " + std::to_string(nv) +
@@ -27,7 +33,7 @@ Status smooth_over_edges(const MeshEdges& edges, int passes, std::vector<Vec3d>*
   if (nv == 0 || passes <= 0) return Status::Ok();
   const cudaStream_t stream = stream_of(ctx);
   DeviceBuffer<uint32_t> d_offset, d_neighbor;
-  DeviceBuffer<Vec3d> a, b;
+  DeviceBuffer<T> a, b;
   VPR_RETURN_IF_ERROR(d_offset.upload(edges.offset.data(), edges.offset.size(), ctx));
   VPR_RETURN_IF_ERROR(d_neighbor.upload(edges.neighbor.data(), std::max<size_t>(edges.neighbor.size(), 1), ctx));
   VPR_RETURN_IF_ERROR(a.upload(values->data(), nv, ctx));
@@ -41,6 +47,16 @@ Status smooth_over_edges(const MeshEdges& edges, int passes, std::vector<Vec3d>*
   VPR_RETURN_IF_ERROR(a.download(values->data(), nv));
   VPR_CUDA_TRY(cudaStreamSynchronize(stream));
   return Status::Ok();
+}
+
+}  // namespace
+
+Status smooth_over_edges(const MeshEdges& edges, int passes, std::vector<Vec3d>* values, const ExecContext& ctx) {
+  return smooth(edges, passes, values, ctx);
+}
+
+Status smooth_over_edges(const MeshEdges& edges, int passes, std::vector<float>* values, const ExecContext& ctx) {
+  return smooth(edges, passes, values, ctx);
 }
 
 }  // namespace vpr::cuda

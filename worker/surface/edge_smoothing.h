@@ -27,16 +27,29 @@ VPR_HD inline Vec3d smoothed_vector(const uint32_t* offset, const uint32_t* neig
   return now[v] * 0.5 + sum * (0.5 / double(degree));
 }
 
+// The same for a float per vertex (the density, surface_density.h: 16
+// passes on every default job), its row summed in double.
+VPR_HD inline float smoothed_scalar(const uint32_t* offset, const uint32_t* neighbor, const float* now, uint32_t v) {
+  const uint32_t degree = offset[v + 1] - offset[v];
+  if (degree == 0) return now[v];
+  double sum = 0;
+  for (uint32_t i = offset[v]; i < offset[v + 1]; ++i) sum += now[neighbor[i]];
+  return float(0.5 * now[v] + 0.5 * sum / double(degree));
+}
+
 // values: one per vertex of `edges`, smoothed in place.
 using EdgeSmoothing = std::function<Status(const MeshEdges& edges, int passes, std::vector<Vec3d>* values)>;
+using ScalarEdgeSmoothing = std::function<Status(const MeshEdges& edges, int passes, std::vector<float>* values)>;
 
 namespace cpu {
 Status smooth_over_edges(const MeshEdges& edges, int passes, std::vector<Vec3d>* values);
+Status smooth_over_edges(const MeshEdges& edges, int passes, std::vector<float>* values);
 }  // namespace cpu
 
-// GPU twin, built when VPR_HAVE_CUDA (edge_smoothing.cu): the same bits.
+// GPU twins, built when VPR_HAVE_CUDA (edge_smoothing.cu): the same bits.
 namespace cuda {
 Status smooth_over_edges(const MeshEdges& edges, int passes, std::vector<Vec3d>* values, const ExecContext& ctx);
+Status smooth_over_edges(const MeshEdges& edges, int passes, std::vector<float>* values, const ExecContext& ctx);
 }  // namespace cuda
 
 }  // namespace vpr

@@ -312,29 +312,23 @@ void smooth_over_edges(const Mesh& mesh, int iterations, int channels, int chann
   smooth_over_edges(mesh_edges(mesh), iterations, channels, channel, values);
 }
 
-void smooth_over_edges(const MeshEdges& edges, int iterations, int channels, int channel, std::vector<float>* values) {
+bool smooth_over_edges(const MeshEdges& edges, int iterations, int channels, int channel, std::vector<float>* values,
+                       const ScalarEdgeSmoothing& device) {
   const size_t nv = edges.vertex_count(), k = size_t(channels);
-  // The channel in its own arrays (one read per neighbour, not a strided
-  // one); each vertex sums its neighbours in ascending order, in double, so
-  // the result is the same on any thread count.
-  std::vector<float> now(nv), next(nv);
+  // The channel in its own array (one read per neighbour, not a strided
+  // one); each vertex sums its neighbours in ascending order, in double
+  // (smoothed_scalar), so the result is the same on any thread count and
+  // either twin.
+  std::vector<float> now(nv);
   for (size_t v = 0; v < nv; ++v) now[v] = (*values)[k * v + channel];
-  for (int it = 0; it < iterations; ++it) {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t v = r.begin(); v != r.end(); ++v) {
-        const size_t n = edges.degree(uint32_t(v));
-        if (n == 0) {
-          next[v] = now[v];
-          continue;
-        }
-        double sum = 0;
-        for (const uint32_t* w = edges.begin(uint32_t(v)); w != edges.end(uint32_t(v)); ++w) sum += now[*w];
-        next[v] = float(0.5 * now[v] + 0.5 * sum / double(n));
-      }
-    });
-    now.swap(next);
+  std::vector<float> smoothed = now;
+  const bool on_device = device && device(edges, iterations, &smoothed).ok();
+  if (!on_device) {
+    smoothed = std::move(now);
+    (void)cpu::smooth_over_edges(edges, iterations, &smoothed);  // one value per vertex: cannot fail
   }
-  for (size_t v = 0; v < nv; ++v) (*values)[k * v + channel] = now[v];
+  for (size_t v = 0; v < nv; ++v) (*values)[k * v + channel] = smoothed[v];
+  return on_device;
 }
 
 }  // namespace vpr

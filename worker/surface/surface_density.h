@@ -11,6 +11,7 @@
 
 #include "core/mesh.h"
 #include "core/status.h"
+#include "surface/edge_smoothing.h"
 #include "surface/mesh_edges.h"
 
 namespace vpr {
@@ -86,7 +87,10 @@ std::vector<float> vertex_density(const std::vector<double>& curvature, const st
 // spacings, not from one element to the next: a CVT cannot place well-shaped
 // triangles across a tenfold jump in density.
 void smooth_over_edges(const Mesh& mesh, int iterations, int channels, int channel, std::vector<float>* values);
-// The same over edges already built (mesh_edges(mesh)).
-void smooth_over_edges(const MeshEdges& edges, int iterations, int channels, int channel, std::vector<float>* values);
+// The same over edges already built (mesh_edges(mesh)). device: the passes'
+// GPU twin (edge_smoothing.h: the same bits), or empty; when it fails, the
+// host's passes run from the same values. Returns whether the device ran them.
+bool smooth_over_edges(const MeshEdges& edges, int iterations, int channels, int channel, std::vector<float>* values,
+                       const ScalarEdgeSmoothing& device = {});
 
 }  // namespace vpr
