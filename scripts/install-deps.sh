@@ -14,6 +14,7 @@ packages=(
   python3-grpcio python3-protobuf python3-yaml python3-numpy
   python3-venv python3-pip python3-setuptools python3-wheel  # pip install ./client/python, offline
   redis-server libhiredis-dev libssl-dev openssl
+  libgoogle-perftools-dev  # tcmalloc for the programs (cmake/Allocator.cmake)
 )
 # `install-deps.sh sanitize` (make sanitize, scripts/fuzz.sh): clang, its
 # sanitizer and libFuzzer runtimes, and llvm-symbolizer for readable reports.
