@@ -100,12 +100,16 @@ void destroy_framebuffer(const Functions& gl, Framebuffer* fb);
 struct RenderBreakdown {
   double prep = 0, upload = 0, draw = 0, readback = 0, convert = 0;
   double bind = 0;  // making the context current and releasing it (the EGL renderer's)
+  bool prep_on_gpu = false;  // the drawn geometry came from the GPU twin (drawn_geometry.h)
+  std::string prep_note;     // why the twin's result was not used, if it was asked for
   std::string to_string() const;
 };
 
-// path: Renderer::DrawPath (kAuto: by software_rasterizer).
+// path: Renderer::DrawPath (kAuto: by software_rasterizer). twin: the drawn
+// geometry's GPU twin (Renderer::render), or empty for the host's.
 Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
-                    RenderBreakdown* breakdown = nullptr, Renderer::DrawPath path = Renderer::DrawPath::kAuto);
+                    RenderBreakdown* breakdown = nullptr, Renderer::DrawPath path = Renderer::DrawPath::kAuto,
+                    const DrawnGeometryTwin& twin = {});
 
 // Whether the current context rasterizes on the CPU (Mesa's llvmpipe,
 // softpipe, swrast): render_views then draws every corner unindexed, which

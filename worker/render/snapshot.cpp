@@ -23,7 +23,7 @@
 #include <cstring>
 #include <string>
 
-#include "render/corner_normals.h"
+#include "render/drawn_geometry.h"
 #include "render/gl_functions.h"
 #include "core/vec3.h"
 
@@ -237,13 +237,13 @@ bool software_rasterizer(const Functions& gl) {
 std::string RenderBreakdown::to_string() const {
   char buf[192];
   std::snprintf(buf, sizeof buf,
-                "prep %.1f ms, upload %.1f ms, draw %.1f ms, readback %.1f ms, convert %.1f ms, bind %.1f ms", prep,
-                upload, draw, readback, convert, bind);
-  return buf;
+                "prep %.1f ms%s, upload %.1f ms, draw %.1f ms, readback %.1f ms, convert %.1f ms, bind %.1f ms", prep,
+                prep_on_gpu ? " (on the GPU)" : "", upload, draw, readback, convert, bind);
+  return prep_note.empty() ? std::string(buf) : std::string(buf) + "; " + prep_note;
 }
 
 Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
-                    RenderBreakdown* breakdown, Renderer::DrawPath path) {
+                    RenderBreakdown* breakdown, Renderer::DrawPath path, const DrawnGeometryTwin& twin) {
   assert(out != nullptr);
   RenderBreakdown local;
   RenderBreakdown& bd = breakdown ? *breakdown : local;
@@ -257,82 +257,20 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   double unused = 0;
   lap(&unused);
   out->clear();
-  const size_t nf = mesh.face_count();
   for (const View& v : views)
     if (v.width <= 0 || v.height <= 0) return invalid_argument("view " + v.name + " has an empty image");
-  for (uint32_t i : mesh.indices)
-    if (i >= mesh.vertex_count())
-      return invalid_argument("face index " + std::to_string(i) + " is out of range; the mesh has " +
-                              std::to_string(mesh.vertex_count()) + " vertices");
-
-  // The drawable faces' corners, with smooth normals (corner_normals); on a
-  // GPU's renderer shared where their positions and normals agree
-  // (share_corners). Positions are stored relative to the bounding-box
-  // centre, and the centre goes into the (double) matrix instead: GL's float
-  // transform would otherwise lose the surface detail of a scan far from the
-  // origin.
-  const Aabb box = bounding_box(mesh);
-  const Vec3d centre{0.5 * (double(box.lo[0]) + box.hi[0]), 0.5 * (double(box.lo[1]) + box.hi[1]),
-                     0.5 * (double(box.lo[2]) + box.hi[2])};
-  // Two parallel passes: which faces are drawable (and their normals), then
-  // their normals at the slots a prefix sum gives them (face order kept).
-  std::vector<Vec3d> all_normals(nf);
-  std::vector<uint32_t> slot(nf + 1, 0);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 8192), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t f = r.begin(); f < r.end(); ++f) {
-      const Vec3d a = load3d(mesh.positions.data(), mesh.indices[3 * f]) - centre;
-      const Vec3d b = load3d(mesh.positions.data(), mesh.indices[3 * f + 1]) - centre;
-      const Vec3d c = load3d(mesh.positions.data(), mesh.indices[3 * f + 2]) - centre;
-      all_normals[f] = cross(b - a, c - a);
-      const double len = norm(all_normals[f]);
-      slot[f + 1] = (len > 0.0) && std::isfinite(len);  // degenerate: nothing to draw, no normal
-    }
-  });
-  for (size_t f = 0; f < nf; ++f) slot[f + 1] += slot[f];
-  const size_t kept = slot[nf];
-  std::vector<Vec3> face_normals(kept);  // float: at 40M faces the doubles would cost another 0.5 GB
-  std::vector<Vec3d> area_normals(kept);
-  std::vector<uint32_t> kept_faces(kept);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 8192), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t f = r.begin(); f < r.end(); ++f) {
-      if (slot[f + 1] == slot[f]) continue;
-      const size_t k = slot[f];
-      const Vec3d n = all_normals[f];
-      const double len = norm(n);
-      face_normals[k] = Vec3{float(n.x / len), float(n.y / len), float(n.z / len)};
-      area_normals[k] = n;
-      kept_faces[k] = uint32_t(f);
-    }
-  });
-  all_normals = {};
-  slot = {};
-  CornerNormals corner = corner_normals(mesh, kept_faces, face_normals, area_normals);
-  area_normals = {};
-  face_normals = {};
+  // The drawable faces' corners, with smooth normals, shared on a GPU's
+  // renderer (drawn_geometry.h); on a GPU job the twin builds them there.
   const bool indexed = path == Renderer::DrawPath::kAuto ? !software_rasterizer(gl)
                                                         : path == Renderer::DrawPath::kSharedCorners;
-  SharedCorners shared;
-  if (indexed) shared = share_corners(corner);
-  corner.start = {};
-  corner.corners = {};
-  // The drawn vertices: every corner, or each shared vertex's first corner.
-  const size_t drawn = indexed ? shared.corner.size() : 3 * kept;
-  std::vector<Vec3> shared_normals(indexed ? drawn : 0);
-  std::vector<float> positions(3 * drawn);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, drawn, 16384), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i) {
-      const uint32_t c = indexed ? shared.corner[i] : uint32_t(i);
-      if (indexed) shared_normals[i] = corner.normal[c];
-      const Vec3d p = load3d(mesh.positions.data(), mesh.indices[3 * size_t(kept_faces[c / 3]) + c % 3]) - centre;
-      positions[3 * i] = float(p.x);
-      positions[3 * i + 1] = float(p.y);
-      positions[3 * i + 2] = float(p.z);
-    }
-  });
-  if (indexed) corner.normal = {};
-  const std::vector<Vec3>& normals = indexed ? shared_normals : corner.normal;
-  const std::vector<uint32_t>& indices = shared.index;
-  const GLsizei vertex_count = GLsizei(3 * kept);  // corners drawn (indices, or array vertices)
+  DrawnGeometry geometry;
+  VPR_RETURN_IF_ERROR(drawn_geometry(mesh, indexed, twin, &geometry, &bd.prep_on_gpu, &bd.prep_note));
+  const Vec3d centre = geometry.centre;
+  const std::vector<float>& positions = geometry.positions;
+  const std::vector<Vec3>& normals = geometry.normals;
+  const std::vector<uint32_t>& indices = geometry.indices;
+  const size_t drawn = normals.size();
+  const GLsizei vertex_count = GLsizei(geometry.corners);  // corners drawn (indices, or array vertices)
   std::vector<uint8_t> colors(4 * drawn, 255);
 
   lap(&bd.prep);

@@ -10,6 +10,7 @@
 #include "core/image.h"
 #include "core/mesh.h"
 #include "core/status.h"
+#include "render/drawn_geometry.h"
 #include "render/views.h"
 
 namespace vpr {
@@ -38,10 +39,14 @@ class Renderer {
   // 255 * (0.15 + 0.85 |n . l|), n the corner's smooth normal (faces within
   // 60 degrees averaged, creases kept), l the view direction tilted 25
   // degrees toward the image's upper left. Degenerate faces draw nothing.
-  // Out-of-range indices are kInvalidArgument.
-  virtual Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out) = 0;
+  // Out-of-range indices are kInvalidArgument. twin: the GPU twin of the
+  // drawn geometry (drawn_geometry.h) on a GPU job, else empty (the host
+  // builds it); the same images either way.
+  virtual Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
+                        const DrawnGeometryTwin& twin = {}) = 0;
   // Where the last render() spent its time, for benchmarks:
-  // "prep P ms, upload U ms, draw D ms, readback R ms, convert C ms".
+  // "prep P ms, upload U ms, draw D ms, readback R ms, convert C ms, bind B ms"
+  // (prep "(on the GPU)" when the twin built the geometry).
   virtual std::string last_breakdown() const { return ""; }
   // How the corners reach GL. kAuto: on a GPU, corners with the same
   // position and normal shared in an indexed draw (a smaller upload); on a

@@ -114,7 +114,8 @@ class EglRenderer final : public Renderer {
 
   // One render at a time per renderer: the context is made current on the
   // calling thread for the duration of the call and released afterwards.
-  Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out) override {
+  Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
+                const DrawnGeometryTwin& twin = {}) override {
     std::lock_guard<std::mutex> lock(mutex_);
     using Clock = std::chrono::steady_clock;
     auto ms_since = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
@@ -129,7 +130,7 @@ class EglRenderer final : public Renderer {
       s = ensure_pbuffer(width, height);
     }
     const double bind = ms_since(start);
-    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_, draw_path_);
+    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_, draw_path_, twin);
     const auto released = Clock::now();
     release();
     breakdown_.bind = bind + ms_since(released);
