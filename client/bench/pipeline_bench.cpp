@@ -10,7 +10,7 @@
 // MODEL may end in @1M (or @<N>M): the model midpoint-subdivided to at least
 // N million triangles. Prints Markdown tables; progress goes to stderr.
 //   vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]
-//                  [--cvt-sweeps auto|rounds|slabs]
+//                  [--cvt-sweeps auto|rounds|slabs] [--render-prep auto|host]
 //                  [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...
 // --density: the jobs' density mode (uniform, curvature, perception, paper;
 // the pipeline's default when not given).
@@ -60,6 +60,7 @@ struct Args {
   std::string peers = "all";
   std::optional<vpr::DensityMode> density;
   vpr::CvtSweeps cvt_sweeps = vpr::CvtSweeps::kAuto;
+  bool render_prep_on_gpu = true;
   std::vector<std::pair<std::string, uint32_t>> inputs;
 };
 
@@ -90,6 +91,7 @@ vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::
   options.shared_renderer = renderer;
   if (args.density) options.density = *args.density;
   options.cvt_sweeps = args.cvt_sweeps;
+  options.render_prep_on_gpu = args.render_prep_on_gpu;
   auto result = vpr::run_pipeline(*mesh, options);
   if (!result.ok()) return result.status();
   const auto encode_start = Clock::now();
@@ -140,6 +142,10 @@ int parse_args(int argc, char** argv, Args* a) {
         a->cvt_sweeps = vpr::CvtSweeps::kSlabs;
       else
         return 2;
+    } else if (s == "--render-prep") {
+      const std::string m = next();
+      if (m != "auto" && m != "host") return 2;
+      a->render_prep_on_gpu = m == "auto";
     } else if (s == "--peers") {
       a->peers = next();
     } else if (s == "--concurrency") {
@@ -193,7 +199,7 @@ int main(int argc, char** argv) {
   if (parse_args(argc, argv, &args) != 0) {
     std::fprintf(stderr,
                  "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]\n"
-                 "                      [--cvt-sweeps auto|rounds|slabs]\n"
+                 "                      [--cvt-sweeps auto|rounds|slabs] [--render-prep auto|host]\n"
                  "                      [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
     return 2;
   }

@@ -417,7 +417,17 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
       front->renderer = front->own_renderer.get();
     }
     result.renderer = front->renderer->description();
-    Status status = front->renderer->render(input, views, &snapshots);
+    // On a GPU job the drawn geometry (smooth corner normals, shared
+    // corners) is built on the device: the host's part was what stretched
+    // the render six-fold with eight jobs at once.
+    DrawnGeometryTwin geometry_twin;
+#ifdef VPR_HAVE_CUDA
+    if (device.on_gpu() && options.render_prep_on_gpu)
+      geometry_twin = [&device](const Mesh& m, bool indexed, DrawnGeometry* g) {
+        return cuda::drawn_geometry(m, indexed, g, device.context());
+      };
+#endif
+    Status status = front->renderer->render(input, views, &snapshots, geometry_twin);
     stage.record_ms("render", ms_since(start), result.renderer, "");
     if (!status.ok()) return Status(status.code(), "render: " + status.message());
   }

@@ -140,6 +140,10 @@ struct PipelineOptions {
   // sweeps instead of a dozen. -1 above then makes no try ahead.
   bool visual_target_warm = true;
   CvtSweeps cvt_sweeps = CvtSweeps::kAuto;
+  // On a GPU job the render's drawn geometry (smooth corner normals, shared
+  // corners) is built on the device (render/drawn_geometry.h); false builds
+  // it on the host (the same images; for benchmarks, `--render-prep host`).
+  bool render_prep_on_gpu = true;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
   // Called as each stage ends, e.g. to stream progress; the StageTiming is
