@@ -13,7 +13,13 @@ shift || true
 OUT=${OUT:-/tmp/out}
 mkdir -p "$OUT"
 # A warm machine keeps the last call's .bundle: unpack again when the pack is newer.
-if [ ! -d .bundle ] || [ .pack/bundle.tar.gz -nt .bundle ]; then rm -rf .bundle && tar -xzf .pack/bundle.tar.gz && touch .bundle; fi
+# (Python's lzma where the image has no xz.)
+if [ ! -d .bundle ] || [ .pack/bundle.tar.xz -nt .bundle ]; then
+  rm -rf .bundle
+  if command -v xz >/dev/null; then tar -xJf .pack/bundle.tar.xz
+  else python3 -c 'import tarfile; tarfile.open(".pack/bundle.tar.xz").extractall()'; fi
+  touch .bundle
+fi
 for f in .gl/*.deb; do dpkg -x "$f" /; done
 ldconfig
 export LD_LIBRARY_PATH=$PWD/.bundle/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
