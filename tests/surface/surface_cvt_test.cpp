@@ -307,6 +307,55 @@ TEST(MeshEdgesTest, RowsMatchTheFacesEdgesOnAnyThreadCount) {
   }
 }
 
+// Later passes look only at the faces the pass before made, and write the
+// faces that split in place among the rest: on a sphere stretched 40-fold
+// along x (long thin faces, so that splits beget splits for several passes,
+// the last ones leaving most faces whole), every edge ends at most max_edge long, the surface
+// stays closed and conforming (every edge in two faces), keeps its area and
+// its faces' input order, and the same on any thread count.
+TEST(SurfaceRefineTest, LaterPassesSplitOnlyNewFacesAndKeepTheSurfaceClosed) {
+  Mesh input = testing::icosphere(3);
+  for (size_t v = 0; v < input.vertex_count(); ++v) input.positions[3 * v] *= 40.0f;
+  auto area = [](const Mesh& m) {
+    double a = 0;
+    for (size_t f = 0; f < m.face_count(); ++f) {
+      const uint32_t* t = &m.indices[3 * f];
+      const Vec3d p = load3d(m.positions.data(), t[0]);
+      a += 0.5 * norm(cross(load3d(m.positions.data(), t[1]) - p, load3d(m.positions.data(), t[2]) - p));
+    }
+    return a;
+  };
+  const double max_edge = 0.35;
+  RefinedSurface reference;
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    auto r = refine_geometry(input, max_edge, 10'000'000);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    if (threads == 1) {
+      reference = *r;
+      ASSERT_GE(r->pass_end.size(), 4u) << "the stretched sphere should take several passes";
+      const size_t last = r->pass_end.back() - r->pass_end[r->pass_end.size() - 2];
+      EXPECT_LT(4 * last, r->mesh.face_count()) << "the last pass leaves most faces whole";
+      for (size_t f = 0; f < r->mesh.face_count(); ++f)
+        for (int c = 0; c < 3; ++c) {
+          const Vec3d a = load3d(r->mesh.positions.data(), r->mesh.indices[3 * f + c]);
+          const Vec3d b = load3d(r->mesh.positions.data(), r->mesh.indices[3 * f + (c + 1) % 3]);
+          ASSERT_LE(norm(a - b), max_edge) << "face " << f;
+        }
+      EXPECT_EQ(std::count_if(r->edges.faces.begin(), r->edges.faces.end(), [](uint32_t n) { return n != 2; }), 0);
+      EXPECT_TRUE(std::is_sorted(r->face.begin(), r->face.end()));
+      EXPECT_NEAR(area(r->mesh), area(input), 1e-9 * area(input));
+      const MeshEdges e = mesh_edges(r->mesh);
+      EXPECT_EQ(r->edges.neighbor, e.neighbor);
+    } else {
+      EXPECT_EQ(r->mesh.indices, reference.mesh.indices) << threads << " threads";
+      EXPECT_EQ(r->mesh.positions, reference.mesh.positions) << threads << " threads";
+      EXPECT_EQ(r->face, reference.face) << threads << " threads";
+      EXPECT_EQ(r->midpoint_ends, reference.midpoint_ends) << threads << " threads";
+    }
+  }
+}
+
 TEST(SurfaceRefineTest, WeldsDuplicatesAndSmoothsTheSameOnAnyThreadCount) {
   // Refinement and density smoothing run in parallel: positions, faces,
   // values and the smoothed channel must not depend on the thread count. The
