@@ -5,7 +5,7 @@
 // loop's order (the same bits on any thread count), each thread reads the
 // faces in order, and the scattered writes, which were the serial loop's
 // cost, are shared out. For scans of every face of a large mesh (vertex
-// normals, edge rows); below min_range vertices a range, one thread. The
+// normals, the dual's per-edge faces); below min_range vertices a range, one thread. The
 // "vertices" may be any items a loop scatters into: edge entries, cells.
 #pragma once
 

@@ -1,0 +1,109 @@
+// A mesh's edge rows (surface/mesh_edges.h): every edge once per end, rows
+// ascending, each with the number of faces using it, whatever the face order
+// or the thread count.
+#include "surface/mesh_edges.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <map>
+#include <random>
+#include <utility>
+#include <vector>
+
+namespace vpr {
+namespace {
+
+// Random triangles over `vertices` vertices with what real meshes hold:
+// faces repeated (edges of three or four faces), corners repeated (no edge),
+// and vertices no face uses.
+std::vector<uint32_t> messy_faces(uint32_t vertices, size_t faces, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<uint32_t> pick(0, vertices - 1);
+  std::vector<uint32_t> idx;
+  for (size_t f = 0; f < faces; ++f) {
+    uint32_t a = pick(rng), b = pick(rng), c = pick(rng);
+    if (f % 17 == 0) b = a;  // a degenerate corner
+    if (a % 10 == 9 || b % 10 == 9 || c % 10 == 9) continue;  // every tenth vertex unused
+    idx.insert(idx.end(), {a, b, c});
+    if (f % 13 == 0) idx.insert(idx.end(), {c, b, a});  // the same face again, flipped
+  }
+  return idx;
+}
+
+// The rows from an ordered map of undirected edges, the plain way.
+MeshEdges edges_by_map(const std::vector<uint32_t>& idx, size_t vertex_count) {
+  std::map<std::pair<uint32_t, uint32_t>, uint32_t> uses;
+  for (size_t f = 0; f + 2 < idx.size(); f += 3)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = idx[f + c], b = idx[f + (c + 1) % 3];
+      if (a == b) continue;
+      ++uses[{a, b}];
+      ++uses[{b, a}];
+    }
+  MeshEdges e;
+  e.offset.assign(vertex_count + 1, 0);
+  for (const auto& [edge, n] : uses) {
+    ++e.offset[edge.first + 1];
+    e.neighbor.push_back(edge.second);
+    e.faces.push_back(n);
+  }
+  for (size_t v = 0; v < vertex_count; ++v) e.offset[v + 1] += e.offset[v];
+  return e;
+}
+
+void expect_same(const MeshEdges& a, const MeshEdges& b) {
+  EXPECT_EQ(a.offset, b.offset);
+  EXPECT_EQ(a.neighbor, b.neighbor);
+  EXPECT_EQ(a.faces, b.faces);
+}
+
+TEST(MeshEdgesTest, RowsMatchAnOrderedMapOfEdges) {
+  const uint32_t nv = 60000;
+  const std::vector<uint32_t> idx = messy_faces(nv, 150000, 7);
+  const MeshEdges e = mesh_edges(idx, nv);
+  const MeshEdges want = edges_by_map(idx, nv);
+  expect_same(e, want);
+  // What the messy faces were for: edges of several faces, and empty rows.
+  EXPECT_GT(*std::max_element(e.faces.begin(), e.faces.end()), 2u);
+  EXPECT_EQ(e.degree(9), 0u);
+  for (uint32_t v = 0; v < nv; ++v)
+    ASSERT_TRUE(std::is_sorted(e.begin(v), e.end(v))) << "row " << v;
+  // entry() finds an edge from either end, and nothing else.
+  const uint32_t a = idx[0], b = idx[2];
+  if (a != b) {
+    ASSERT_NE(e.entry(a, b), UINT32_MAX);
+    EXPECT_EQ(e.neighbor[e.entry(a, b)], b);
+  }
+  EXPECT_EQ(e.entry(9, 0), UINT32_MAX);
+}
+
+TEST(MeshEdgesTest, FaceOrderAndThreadCountDoNotMatter) {
+  const uint32_t nv = 40000;
+  std::vector<uint32_t> idx = messy_faces(nv, 120000, 11);
+  const MeshEdges want = mesh_edges(idx, nv);
+  // The faces shuffled (each face's corners kept together).
+  std::vector<size_t> order(idx.size() / 3);
+  for (size_t f = 0; f < order.size(); ++f) order[f] = f;
+  std::shuffle(order.begin(), order.end(), std::mt19937(3));
+  std::vector<uint32_t> shuffled;
+  for (size_t f : order) shuffled.insert(shuffled.end(), idx.begin() + 3 * f, idx.begin() + 3 * f + 3);
+  for (int threads : {1, 2, 4, 8}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    SCOPED_TRACE(threads);
+    expect_same(mesh_edges(idx, nv), want);
+    expect_same(mesh_edges(shuffled, nv), want);
+  }
+}
+
+TEST(MeshEdgesTest, EmptyAndDegenerateMeshesGiveEmptyRows) {
+  const MeshEdges none = mesh_edges(std::vector<uint32_t>{}, 0);
+  EXPECT_EQ(none.offset, std::vector<uint32_t>{0});
+  const MeshEdges flat = mesh_edges(std::vector<uint32_t>{0, 0, 0, 1, 1, 1}, 3);
+  EXPECT_EQ(flat.offset, (std::vector<uint32_t>{0, 0, 0, 0}));
+  EXPECT_TRUE(flat.neighbor.empty());
+}
+
+}  // namespace
+}  // namespace vpr
