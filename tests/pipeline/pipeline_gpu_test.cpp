@@ -72,6 +72,9 @@ TEST_F(PipelineGpu, EveryTwinRunsOnTheGpuAndAgreesWithTheCpu) {
     ASSERT_NE(t, nullptr) << name;
     EXPECT_EQ(t->device, "cuda") << name << ": " << t->note;
   }
+  const StageTiming* render = find_stage(*gpu, "render");
+  ASSERT_NE(render, nullptr);
+  EXPECT_EQ(render->note, "geometry prepared on the GPU");
   // Identical feature pixels give identical saliency point counts.
   EXPECT_EQ(gpu->saliency_points, cpu->saliency_points);
   // Particles agree within 1e-4 of the diagonal (stage tests); the mesher may
@@ -180,6 +183,12 @@ TEST_F(PipelineGpu, AStageThatFailsOnTheGpuRerunsOnTheCpu) {
     EXPECT_EQ(t->device, "cpu") << name;
     EXPECT_NE(t->note.find("RESOURCE_EXHAUSTED"), std::string::npos) << name << ": " << t->note;
   }
+  // The render's geometry too: built on the host, the same snapshots.
+  const StageTiming* render = find_stage(*fallback, "render");
+  ASSERT_NE(render, nullptr);
+  EXPECT_NE(render->note.find("RESOURCE_EXHAUSTED"), std::string::npos) << render->note;
+  EXPECT_NE(render->note.find("geometry prepared on the host"), std::string::npos) << render->note;
+  EXPECT_EQ(fallback->saliency_points, cpu->saliency_points);
   EXPECT_EQ(fallback->mesh.positions, cpu->mesh.positions);
   EXPECT_EQ(fallback->mesh.indices, cpu->mesh.indices);
   EXPECT_EQ(tiny.used.load(), 0u) << "every device buffer must be released";

@@ -420,15 +420,26 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
     // On a GPU job the drawn geometry (smooth corner normals, shared
     // corners) is built on the device: the host's part was what stretched
     // the render six-fold with eight jobs at once.
+    // The twin runs inside this job's render() call, so it may record its
+    // own status here: the stage's note says where the geometry was built,
+    // as every other twin's stage does.
     DrawnGeometryTwin geometry_twin;
+    bool twin_ran = false;
+    Status twin_status = Status::Ok();
 #ifdef VPR_HAVE_CUDA
     if (device.on_gpu() && options.render_prep_on_gpu)
-      geometry_twin = [&device](const Mesh& m, bool indexed, DrawnGeometry* g) {
-        return cuda::drawn_geometry(m, indexed, g, device.context());
+      geometry_twin = [&](const Mesh& m, bool indexed, DrawnGeometry* g) {
+        twin_ran = true;
+        twin_status = cuda::drawn_geometry(m, indexed, g, device.context());
+        return twin_status;
       };
 #endif
     Status status = front->renderer->render(input, views, &snapshots, geometry_twin);
-    stage.record_ms("render", ms_since(start), result.renderer, "");
+    const std::string prep_note = !twin_ran            ? ""
+                                  : twin_status.ok() ? "geometry prepared on the GPU"
+                                                     : "GPU failed (" + twin_status.to_string() +
+                                                           "), geometry prepared on the host";
+    stage.record_ms("render", ms_since(start), result.renderer, prep_note);
     if (!status.ok()) return Status(status.code(), "render: " + status.message());
   }
 
