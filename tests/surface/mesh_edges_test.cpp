@@ -89,6 +89,7 @@ TEST(MeshEdgesTest, FaceOrderAndThreadCountDoNotMatter) {
   std::shuffle(order.begin(), order.end(), std::mt19937(3));
   std::vector<uint32_t> shuffled;
   for (size_t f : order) shuffled.insert(shuffled.end(), idx.begin() + 3 * f, idx.begin() + 3 * f + 3);
+  // 1-4 threads fill the rows by vertex ranges, 8 by atomic slots (mesh_edges.cpp).
   for (int threads : {1, 2, 4, 8}) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     SCOPED_TRACE(threads);

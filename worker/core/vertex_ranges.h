@@ -5,7 +5,7 @@
 // loop's order (the same bits on any thread count), each thread reads the
 // faces in order, and the scattered writes, which were the serial loop's
 // cost, are shared out. For scans of every face of a large mesh (vertex
-// normals, the dual's per-edge faces); below min_range vertices a range, one thread. The
+// normals, edge rows on few threads); below min_range vertices a range, one thread. The
 // "vertices" may be any items a loop scatters into: edge entries, cells.
 #pragma once
 
@@ -29,15 +29,20 @@ namespace vpr {
 // share of the threads when several run (core/running_jobs.h).
 constexpr size_t kMaxVertexRanges = 8;
 
+// The threads this job's loops may count on: the arena's, or fewer where a
+// global_control limits them, shared out among the running jobs (at least 1).
+inline size_t job_threads() {
+  const size_t threads =
+      std::min<size_t>(size_t(tbb::this_task_arena::max_concurrency()),
+                       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  return std::max<size_t>(1, threads / size_t(running_jobs()));
+}
+
 // body(lo, hi): the loop, applying only the updates of vertices in [lo, hi).
 template <class Body>
 void in_vertex_ranges(size_t vertex_count, Body&& body, size_t min_range = 16384) {
-  const size_t threads =
-      std::min<size_t>(size_t(tbb::this_task_arena::max_concurrency()),
-                       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)) /
-      size_t(running_jobs());
   const size_t ranges =
-      std::max<size_t>(1, std::min<size_t>({threads, vertex_count / min_range, kMaxVertexRanges}));
+      std::max<size_t>(1, std::min<size_t>({job_threads(), vertex_count / min_range, kMaxVertexRanges}));
   tbb::parallel_for(size_t(0), ranges, [&](size_t r) {
     body(uint32_t(vertex_count * r / ranges), uint32_t(vertex_count * (r + 1) / ranges));
   });
