@@ -99,8 +99,13 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
   std::vector<Vector3d> start(nv);
   for (uint32_t v = 0; v < nv; ++v) start[v] = pos(v);
   std::vector<double> offset(nv, 0.0);
-  bool matched = false;
-  std::vector<double> last_offset(nv, 0.0);  // the offsets the last round's samples were matched at
+  // The last round's samples, for the RMS after the fit: its triangles' sums
+  // and sum w r^2, sum w; each triangle's N_k . n_t (0 for a held corner);
+  // the offsets the samples were matched at.
+  std::vector<OffsetFaceSums> last_sums;
+  double last_wr2 = 0, last_w = 0;
+  std::vector<std::array<double, 3>> last_along(nf, {0, 0, 0});
+  std::vector<double> last_offset(nv, 0.0);
   for (int round = 0; round < options.rounds && free_count > 0; ++round) {
     // Normal equations of the residuals, in the increment e of the
     // offsets: (A^T W A + lambda D) e = A^T W r - lambda D d.
@@ -111,9 +116,9 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
     std::vector<OffsetFaceSums> per_face;
     double wr2 = 0, w = 0;
     VPR_RETURN_IF_ERROR(sample_set->match(&per_face, &wr2, &w));
-    matched = true;
     st.device_rounds += on_device;
     last_offset = offset;
+    last_wr2 = wr2, last_w = w;
     if (round == 0) st.rms_before = rms(wr2, w);
     std::vector<Eigen::Triplet<double>> entries;
     entries.reserve(9 * nf + nv);
@@ -123,7 +128,7 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
       if (!(s[12] + s[13] + s[14] > 0)) continue;
       const uint32_t* u = &mesh->indices[3 * g];
       const Vector3d n = (pos(u[1]) - pos(u[0])).cross(pos(u[2]) - pos(u[0])).normalized();
-      double along[3];  // N_k . n_t
+      std::array<double, 3>& along = last_along[g];  // N_k . n_t
       for (int k = 0; k < 3; ++k) along[k] = unknown[u[k]] >= 0 ? normal[u[k]].dot(n) : 0.0;
       for (int k = 0; k < 3; ++k) {
         const int64_t i = unknown[u[k]];
@@ -136,6 +141,7 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
         }
       }
     }
+    last_sums = std::move(per_face);
     const double mean_mass = mass.sum() / double(free_count);
     for (uint32_t v = 0; v < nv; ++v) {
       const int64_t i = unknown[v];
@@ -193,17 +199,17 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
     offset = next;
   }
   // The residuals of the last round's samples under the offsets kept (the
-  // linear model above: no second search for the nearest triangles).
-  if (matched) {
-    std::vector<Vec3d> vertex_normal(nv);
-    std::vector<double> delta(nv);
-    for (uint32_t v = 0; v < nv; ++v) {
-      vertex_normal[v] = {normal[v][0], normal[v][1], normal[v][2]};
-      delta[v] = offset[v] - last_offset[v];
+  // linear model above: no second search for the nearest triangles), from
+  // its triangles' sums (offset_wr2_change).
+  if (!last_sums.empty()) {
+    double wr2 = last_wr2;
+    for (size_t g = 0; g < nf; ++g) {
+      const uint32_t* u = &mesh->indices[3 * g];
+      std::array<double, 3> a;
+      for (int k = 0; k < 3; ++k) a[k] = last_along[g][k] * (offset[u[k]] - last_offset[u[k]]);
+      wr2 += offset_wr2_change(last_sums[g], a);
     }
-    double wr2 = 0, w = 0;
-    VPR_RETURN_IF_ERROR(sample_set->sums_after(vertex_normal, delta, &wr2, &w));
-    st.rms_after = rms(wr2, w);
+    st.rms_after = rms(std::max(wr2, 0.0), last_w);  // rounding could leave a tiny negative
   }
   if (stats) *stats = st;
   return Status::Ok();

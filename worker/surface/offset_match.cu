@@ -57,10 +57,8 @@ __global__ void face_sums_kernel(const OffsetMatch* matches, const uint32_t* key
   for (int k = 0; k < 15; ++k) per_face[g][k] = s[k];
 }
 
-// One block of samples in order: sum w r^2 and sum w, r the residual as
-// matched (vertex_normal null) or after the offsets' change.
-__global__ void rms_kernel(const OffsetMatch* matches, uint32_t samples, const uint32_t* indices,
-                           const Vec3d* vertex_normal, const double* delta, double* block_wr2, double* block_w) {
+// One block of samples in order: sum w r^2 and sum w.
+__global__ void rms_kernel(const OffsetMatch* matches, uint32_t samples, double* block_wr2, double* block_w) {
   const uint32_t b = blockIdx.x * blockDim.x + threadIdx.x;
   const uint32_t begin = b * uint32_t(kOffsetRmsBlock);
   if (begin >= samples) return;
@@ -69,8 +67,7 @@ __global__ void rms_kernel(const OffsetMatch* matches, uint32_t samples, const u
   for (uint32_t i = begin; i < end; ++i) {
     const OffsetMatch& m = matches[i];
     if (m.face < 0) continue;
-    const double r = vertex_normal ? residual_after(m, indices, vertex_normal, delta) : m.residual;
-    wr2 += m.weight * r * r;
+    wr2 += m.weight * m.residual * m.residual;
     w += m.weight;
   }
   block_wr2[b] = wr2;
@@ -131,8 +128,7 @@ class DeviceSampleSet : public OffsetSampleSet {
                                                               sample_sorted_.get(), sf, nf, per_face_.get());
     VPR_CUDA_LAUNCHED("face_sums_kernel");
     VPR_RETURN_IF_ERROR(per_face_.download(per_face->data(), nf));
-    matched_ = true;
-    return rms_sums(nullptr, nullptr, wr2, w);
+    return rms_sums(wr2, w);
   }
 
   // The last match's samples, for match_offset_samples.
@@ -140,17 +136,6 @@ class DeviceSampleSet : public OffsetSampleSet {
     VPR_RETURN_IF_ERROR(matches_.download(matches->data(), samples()));
     VPR_CUDA_TRY(cudaStreamSynchronize(stream()));
     return Status::Ok();
-  }
-
-  Status sums_after(const std::vector<Vec3d>& vertex_normal, const std::vector<double>& delta, double* wr2,
-                    double* w) override {
-    *wr2 = *w = 0;
-    if (!matched_) return Status::Ok();
-    DeviceBuffer<Vec3d> d_normal;
-    DeviceBuffer<double> d_delta;
-    VPR_RETURN_IF_ERROR(upload(&d_normal, vertex_normal, ctx_));
-    VPR_RETURN_IF_ERROR(upload(&d_delta, delta, ctx_));
-    return rms_sums(d_normal.get(), d_delta.get(), wr2, w);
   }
 
  private:
@@ -163,11 +148,10 @@ class DeviceSampleSet : public OffsetSampleSet {
     return bits;
   }
   // The blocks' sums on the device, then summed in block order here.
-  Status rms_sums(const Vec3d* vertex_normal, const double* delta, double* wr2, double* w) {
+  Status rms_sums(double* wr2, double* w) {
     const uint32_t sf = uint32_t(samples());
     const size_t blocks = (sf + kOffsetRmsBlock - 1) / kOffsetRmsBlock;
-    rms_kernel<<<blocks_for(blocks), kBlock, 0, stream()>>>(matches_.get(), sf, indices_.get(), vertex_normal, delta,
-                                                            block_wr2_.get(), block_w_.get());
+    rms_kernel<<<blocks_for(blocks), kBlock, 0, stream()>>>(matches_.get(), sf, block_wr2_.get(), block_w_.get());
     VPR_CUDA_LAUNCHED("rms_kernel");
     std::vector<double> host_wr2(blocks), host_w(blocks);
     VPR_RETURN_IF_ERROR(block_wr2_.download(host_wr2.data(), blocks));
@@ -179,7 +163,6 @@ class DeviceSampleSet : public OffsetSampleSet {
 
   OffsetSamples s_;
   ExecContext ctx_;
-  bool matched_ = false;
   DeviceBuffer<float> surface_positions_, positions_;
   DeviceBuffer<uint32_t> surface_indices_, label_, indices_, vert_start_, verts_of_, face_start_, faces_of_;
   DeviceBuffer<uint32_t> key_, key_sorted_, sample_, sample_sorted_;
