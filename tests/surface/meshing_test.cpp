@@ -11,6 +11,7 @@
 #include <map>
 #include <numeric>
 #include <set>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -394,6 +395,82 @@ TEST(RepairSoupTest, AnInsideOutShellComesBackWithEveryFaceReversed) {
     EXPECT_EQ(turned.indices, outward.indices) << "squash " << squash;
     EXPECT_GT(analyze(turned).signed_volume, 3.0 * squash) << "squash " << squash;
     EXPECT_EQ(inward_faces(turned), 0u) << "squash " << squash;
+  }
+}
+
+// A soup that needs no repair is flattened without CGAL
+// (MeshingOptions::clean_soup_shortcut): the same vertices in the same
+// order, faces, sources and stats as CGAL's way gives, on soups the shortcut
+// takes (closed, inward, open with its hole left, points unused in between
+// and at the end) and on ones it leaves to CGAL (a hole to fill, two parts).
+TEST(RepairSoupTest, ACleanSoupGivesWhatCgalsWayGives) {
+  struct Case {
+    const char* name;
+    std::vector<float> points;
+    std::vector<uint32_t> faces;
+    MeshingOptions options;
+  };
+  std::vector<Case> cases;
+  {
+    // A sphere over points renumbered at random, with unused points between
+    // and after them (collect_garbage fills gaps from the end).
+    std::vector<float> p;
+    std::vector<uint32_t> f;
+    append_uv_sphere(0, 20, 12, &p, &f);
+    const size_t n = p.size() / 3, spare = n / 5 + 12;
+    std::vector<uint32_t> to(n);  // a random renumbering
+    std::iota(to.begin(), to.end(), 0);
+    for (size_t i = n - 1; i > 0; --i) std::swap(to[i], to[random4(5, i, 0).v[0] % (i + 1)]);
+    // Every fifth number moved up past the unused ones: gaps inside and after.
+    std::vector<uint32_t> slot(n);
+    for (size_t v = 0; v < n; ++v) slot[v] = to[v] % 5 == 0 ? uint32_t(n + spare - 1 - to[v] / 5) : to[v];
+    std::vector<float> r(3 * (n + spare), 0.5f);
+    for (size_t v = 0; v < n; ++v)
+      for (int k = 0; k < 3; ++k) r[3 * slot[v] + k] = p[3 * v + k];
+    std::vector<uint32_t> g(f.size());
+    for (size_t i = 0; i < f.size(); ++i) g[i] = slot[f[i]];
+    cases.push_back({"closed, renumbered, unused points", r, g, {}});
+    std::vector<uint32_t> inward = g;
+    for (size_t t = 0; t < inward.size() / 3; ++t) std::swap(inward[3 * t + 1], inward[3 * t + 2]);
+    cases.push_back({"inward", r, inward, {}});
+    // Open: the faces round the north pole left out (a hole of 20 edges).
+    std::vector<uint32_t> open(g.begin() + 3 * 20, g.end());
+    MeshingOptions keep_holes;
+    keep_holes.max_hole_edges = 0;
+    cases.push_back({"open, hole kept", r, open, keep_holes});
+    cases.push_back({"open, hole filled", r, open, {}});
+  }
+  {
+    std::vector<float> p;
+    std::vector<uint32_t> f;
+    append_uv_sphere(0, 16, 10, &p, &f);
+    append_uv_sphere(3, 16, 10, &p, &f);
+    cases.push_back({"two parts", p, f, {}});
+  }
+  for (const Case& c : cases) {
+    const size_t n = c.points.size() / 3;
+    Mesh cgal, shortcut;
+    std::vector<uint32_t> cgal_source, shortcut_source;
+    MeshingStats cgal_stats, shortcut_stats;
+    MeshingOptions by_cgal = c.options;
+    by_cgal.clean_soup_shortcut = false;
+    ASSERT_TRUE(repair_triangle_soup(c.points.data(), n, c.faces.data(), c.faces.size() / 3, by_cgal, &cgal,
+                                     &cgal_source, &cgal_stats)
+                    .ok())
+        << c.name;
+    ASSERT_TRUE(repair_triangle_soup(c.points.data(), n, c.faces.data(), c.faces.size() / 3, c.options, &shortcut,
+                                     &shortcut_source, &shortcut_stats)
+                    .ok())
+        << c.name;
+    EXPECT_EQ(shortcut.positions, cgal.positions) << c.name;
+    EXPECT_EQ(shortcut.indices, cgal.indices) << c.name;
+    EXPECT_EQ(shortcut_source, cgal_source) << c.name;
+    EXPECT_EQ(shortcut_stats.vertices_out, cgal_stats.vertices_out) << c.name;
+    EXPECT_EQ(shortcut_stats.points_dropped, cgal_stats.points_dropped) << c.name;
+    EXPECT_EQ(shortcut_stats.holes_left, cgal_stats.holes_left) << c.name;
+    EXPECT_EQ(shortcut_stats.holes_filled, cgal_stats.holes_filled) << c.name;
+    if (std::string(c.name) != "two parts")
+      EXPECT_EQ(inward_faces(shortcut), 0u) << c.name;  // outward about the centre (one part)
   }
 }
 

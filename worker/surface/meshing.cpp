@@ -6,6 +6,7 @@
 // pinches), so the sample density AWLOP produced is the mesh's.
 #include "surface/meshing.h"
 
+#include "core/vec3.h"
 #include "surface/ordered_heap.h"
 
 #include <CGAL/Advancing_front_surface_reconstruction.h>
@@ -250,12 +251,143 @@ void canonical_order(std::vector<Triangle>* triangles) {
   std::sort(triangles->begin(), triangles->end());
 }
 
+// The repair of a soup that needs none: an oriented 2-manifold
+// (oriented_manifold_soup) with no face over the bridge bound, no hole to
+// fill and one edge-connected part whose volume has a clear sign, which is
+// what a CVT's dual (cluster_mesh.h) nearly always is. repair_soup would
+// build a CGAL mesh only to turn no face, split no vertex and fill nothing;
+// this gives its result (the same vertices in the same order, the same faces,
+// sources and stats) from the soup directly, a tenth of the time (igea at
+// 50,000 on 2 cores: 92 -> 9 ms). False, with nothing written, where any of
+// that does not hold: repair_soup then runs as before.
+bool repair_clean_soup(const float* points, size_t n, const std::vector<Triangle>& soup, const MeshingOptions& options,
+                       Mesh* out, std::vector<uint32_t>* source_point, MeshingStats* stats) {
+  if (soup.empty() || n == 0) return false;
+  const size_t nf = soup.size();
+  auto point = [&](size_t v) { return Vec3d{points[3 * v], points[3 * v + 1], points[3 * v + 2]}; };
+  // Directed edges (unique: the soup is an oriented manifold), each with its face.
+  std::vector<std::pair<uint64_t, uint32_t>> directed;
+  directed.reserve(3 * nf);
+  for (size_t f = 0; f < nf; ++f)
+    for (int c = 0; c < 3; ++c)
+      directed.push_back({uint64_t(soup[f][c]) << 32 | uint64_t(soup[f][(c + 1) % 3]), uint32_t(f)});
+  std::sort(directed.begin(), directed.end());
+  auto find = [&](uint64_t key) {
+    auto it = std::lower_bound(directed.begin(), directed.end(), std::pair<uint64_t, uint32_t>{key, 0});
+    return it != directed.end() && it->first == key ? int64_t(it->second) : int64_t(-1);
+  };
+  // Bridges: an edge over max_edge_ratio x the median edge (each undirected
+  // edge once, as CGAL lists a mesh's edges) would remove faces.
+  std::vector<double> lengths;
+  for (const auto& [key, f] : directed) {
+    const uint32_t a = uint32_t(key >> 32), b = uint32_t(key);
+    const int64_t other = find(uint64_t(b) << 32 | a);
+    if (other < 0 || a < b) lengths.push_back(std::sqrt(norm2(point(a) - point(b))));
+  }
+  if (lengths.empty()) return false;
+  std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
+  const double max_edge = options.max_edge_ratio * lengths[lengths.size() / 2];
+  for (double length : lengths)
+    if (length > max_edge) return false;
+  // Holes: each border is a cycle (one outgoing border edge per vertex on
+  // it); with max_hole_edges > 0 some would be filled.
+  size_t cycles = 0;
+  {
+    std::vector<uint32_t> next(n, UINT32_MAX);  // a border vertex's outgoing border edge's end
+    for (const auto& [key, f] : directed) {
+      const uint32_t a = uint32_t(key >> 32), b = uint32_t(key);
+      if (find(uint64_t(b) << 32 | a) < 0) next[b] = a;  // CGAL's border halfedge runs b -> a
+    }
+    std::vector<char> seen(n, 0);
+    for (uint32_t v = 0; v < n; ++v) {
+      if (next[v] == UINT32_MAX || seen[v]) continue;
+      ++cycles;
+      for (uint32_t w = v; !seen[w]; w = next[w]) seen[w] = 1;
+    }
+  }
+  if (cycles > 0 && options.max_hole_edges > 0) return false;
+  // One part whose faces join across edges (as connected_components counts).
+  {
+    std::vector<uint32_t> parent(nf);
+    for (uint32_t f = 0; f < nf; ++f) parent[f] = f;
+    auto root = [&](uint32_t f) {
+      while (parent[f] != f) f = parent[f] = parent[parent[f]];
+      return f;
+    };
+    size_t parts = nf;
+    for (const auto& [key, f] : directed) {
+      const int64_t other = find(uint64_t(uint32_t(key)) << 32 | (key >> 32));
+      if (other < 0) continue;
+      const uint32_t a = root(f), b = root(uint32_t(other));
+      if (a != b) parent[std::max(a, b)] = std::min(a, b), --parts;
+    }
+    if (parts != 1) return false;
+  }
+  // Its winding, by the signed volume about its corners' centroid
+  // (one_component_winding); a volume near zero is left to repair_soup.
+  Vec3d centroid{0, 0, 0};
+  for (const Triangle& t : soup)
+    for (int c = 0; c < 3; ++c) centroid = centroid + point(t[c]);
+  centroid = centroid * (1.0 / double(3 * nf));
+  double volume = 0, magnitude = 0;
+  for (const Triangle& t : soup) {
+    const double v = dot(point(t[0]) - centroid, cross(point(t[1]) - centroid, point(t[2]) - centroid)) / 6.0;
+    volume += v, magnitude += std::abs(v);
+  }
+  if (!(std::abs(volume) > 1e-9 * magnitude)) return false;
+  // Unused points go as collect_garbage removes vertices: the last kept one
+  // moves into the first gap, and so on (Surface_mesh::collect_garbage).
+  std::vector<char> removed(n, 1);
+  for (const Triangle& t : soup)
+    for (size_t v : t) removed[v] = 0;
+  std::vector<uint32_t> at(n);  // at[i]: the point in slot i
+  for (uint32_t v = 0; v < n; ++v) at[v] = v;
+  size_t i0 = 0, i1 = n - 1;
+  while (true) {
+    while (!removed[i0] && i0 < i1) ++i0;
+    while (removed[i1] && i0 < i1) --i1;
+    if (i0 >= i1) break;
+    std::swap(removed[i0], removed[i1]);
+    std::swap(at[i0], at[i1]);
+  }
+  const size_t kept = removed[i0] ? i0 : i0 + 1;
+  std::vector<uint32_t> slot(n, UINT32_MAX);
+  for (size_t i = 0; i < kept; ++i) slot[at[i]] = uint32_t(i);
+  Mesh mesh;
+  mesh.positions.reserve(3 * kept);
+  for (size_t i = 0; i < kept; ++i)
+    mesh.positions.insert(mesh.positions.end(), points + 3 * at[i], points + 3 * at[i] + 3);
+  std::vector<Triangle> faces(nf);
+  for (size_t f = 0; f < nf; ++f) {
+    faces[f] = {slot[soup[f][0]], slot[soup[f][1]], slot[soup[f][2]]};
+    if (volume < 0) std::swap(faces[f][1], faces[f][2]);  // reverse_face_orientations
+  }
+  canonical_order(&faces);
+  mesh.indices.reserve(3 * nf);
+  for (const Triangle& t : faces)
+    for (int c = 0; c < 3; ++c) mesh.indices.push_back(uint32_t(t[c]));
+  if (!(total_area(mesh) > 0.0)) return false;  // repair_soup says why
+  if (stats) {
+    *stats = MeshingStats{};
+    stats->points_in = n;
+    stats->vertices_out = kept;
+    stats->points_dropped = n - kept;
+    stats->holes_left = cycles;
+  }
+  *out = std::move(mesh);
+  if (source_point) *source_point = std::vector<uint32_t>(at.begin(), at.begin() + kept);
+  return true;
+}
+
 // soup_points: the n input points in input order (as CGAL points); soup: triangles over them.
 Status repair_soup(const float* points, size_t n, std::vector<Point> soup_points, std::vector<Triangle> soup,
                    const MeshingOptions& options, Mesh* out, std::vector<uint32_t>* source_point, MeshingStats* stats) {
+  const bool oriented = oriented_manifold_soup(soup, soup_points.size());
+  if (oriented && options.clean_soup_shortcut && repair_clean_soup(points, n, soup, options, out, source_point, stats))
+    return Status::Ok();
   // Consistent orientation; points are duplicated (appended after the n inputs)
   // wherever the facets meet along a non-manifold edge or vertex.
-  if (!oriented_manifold_soup(soup, soup_points.size())) PMP::orient_polygon_soup(soup_points, soup);
+  if (!oriented) PMP::orient_polygon_soup(soup_points, soup);
   size_t split = soup_points.size() - n;
 
   SurfaceMesh sm;

@@ -34,6 +34,10 @@ struct MeshingOptions {
   double halo_spacings = 8;
   size_t points_per_slab = 5000;  // measured on the H100: 2 slabs of 2500 lost more to halos than they won
   size_t max_slabs = 16;
+  // A soup that needs no repair (an oriented manifold in one part, no
+  // bridge, no hole to fill) is flattened directly rather than through a
+  // CGAL mesh: the same result (false takes CGAL's way; tests compare).
+  bool clean_soup_shortcut = true;
 };
 
 struct MeshingStats {
