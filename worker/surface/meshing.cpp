@@ -300,6 +300,10 @@ bool repair_clean_soup(const float* points, size_t n, const std::vector<Triangle
     }
   }
   if (cycles > 0 && options.max_hole_edges > 0) return false;
+  // The points no face uses (collect_garbage removes them, below).
+  std::vector<char> removed(n, 1);
+  for (const Triangle& t : soup)
+    for (size_t v : t) removed[v] = 0;
   // One part whose faces join across edges, as connected_components counts
   // them: where every vertex is one fan, the same as joined through vertices.
   {
@@ -309,10 +313,7 @@ bool repair_clean_soup(const float* points, size_t n, const std::vector<Triangle
       while (parent[v] != v) v = parent[v] = parent[parent[v]];
       return v;
     };
-    size_t parts = 0;
-    std::vector<char> used(n, 0);
-    for (const Triangle& t : soup)
-      for (size_t v : t) parts += !used[v], used[v] = 1;
+    size_t parts = size_t(std::count(removed.begin(), removed.end(), 0));
     for (const Triangle& t : soup)
       for (int c = 1; c < 3; ++c) {
         const uint32_t x = root(uint32_t(t[0])), y = root(uint32_t(t[c]));
@@ -334,9 +335,6 @@ bool repair_clean_soup(const float* points, size_t n, const std::vector<Triangle
   if (!(std::abs(volume) > 1e-9 * magnitude)) return false;
   // Unused points go as collect_garbage removes vertices: the last kept one
   // moves into the first gap, and so on (Surface_mesh::collect_garbage).
-  std::vector<char> removed(n, 1);
-  for (const Triangle& t : soup)
-    for (size_t v : t) removed[v] = 0;
   std::vector<uint32_t> at(n);  // at[i]: the point in slot i
   for (uint32_t v = 0; v < n; ++v) at[v] = v;
   size_t i0 = 0, i1 = n - 1;

@@ -19,7 +19,8 @@
 //   r(p) = n_t . (p - q) - sum_k b_k (N_k . n_t) d_k,
 // and we minimize sum_p w r(p)^2 + lambda sum_k W_k d_k^2 (W_k: the weight of
 // vertex k's samples), a sparse symmetric positive definite system solved
-// by conjugate gradients (a sparse Cholesky factorization if they stall). Held vertices (input boundary, creases, corners) keep d = 0:
+// by conjugate gradients (a sparse Cholesky factorization if they stall).
+// Held vertices (input boundary, creases, corners) keep d = 0:
 // they already sit on a line the input pins down, and moving them off it
 // would round the feature. Each offset is bounded by a fraction of the
 // vertex's mean edge length, and an offset that would turn one of its
