@@ -702,6 +702,12 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       // whose serial steps leave cores idle, runs.
       std::future<SurfaceParts> parts_beside =
           std::async(std::launch::async, [&refined] { return surface_parts(refined.mesh, refined.edges); });
+      // So are the dual's facts of the surface (its boundary and sharp
+      // edges, the faces' planes): made beside the CVT as well, above all
+      // while a GPU runs the CVT's sweeps and the host waits.
+      const bool per_cell = per_cell_sums(options.cluster_mesh.per_cell_sums);
+      std::future<DualSurface> dual_beside = std::async(
+          std::launch::async, [&refined, per_cell] { return dual_surface(refined.mesh, refined.edges, per_cell); });
       std::vector<uint32_t> label;
       CvtOptions cvt = options.cvt;
       cvt.seed = options.sampling.seed;
@@ -764,6 +770,8 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             std::vector<uint32_t> cell;
             const uint32_t cells = result.cvt.clusters;
             ClusterMeshOptions mesh_options = options.cluster_mesh;
+            const DualSurface facts = dual_beside.get();
+            mesh_options.surface_facts = &facts;
 #ifdef VPR_HAVE_CUDA
             // The L2 fit's samples matched and summed on the GPU (the host's
             // bits; the host fits if the device fails).

@@ -107,6 +107,30 @@ struct Quadric {
   }
 };
 
+// Face f's unit normal and area (the normal only where the area is positive).
+void face_plane(const Mesh& surface, size_t f, Vector3d* n, double* area) {
+  const uint32_t* t = &surface.indices[3 * f];
+  const Vector3d a = eig(load3d(surface.positions.data(), t[0])), b = eig(load3d(surface.positions.data(), t[1])),
+                 c = eig(load3d(surface.positions.data(), t[2]));
+  const Vector3d cr = (b - a).cross(c - a);
+  *area = 0.5 * cr.norm();
+  if (*area > 0) *n = cr.normalized();
+}
+
+// Every face's plane, in parallel (zero normals where the area is zero).
+void face_planes(const Mesh& surface, std::vector<Vec3d>* normal, std::vector<double>* area) {
+  const size_t nf = surface.face_count();
+  normal->resize(nf);
+  area->resize(nf);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f != r.end(); ++f) {
+      Vector3d n = Vector3d::Zero();
+      face_plane(surface, f, &n, &(*area)[f]);
+      (*normal)[f] = Vec3d{n.x(), n.y(), n.z()};
+    }
+  });
+}
+
 uint64_t key2(uint32_t a, uint32_t b) {
   return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
 }
@@ -422,25 +446,15 @@ void relax_tangentially(Mesh* mesh, const std::vector<uint32_t>& source, const s
 
 }  // namespace
 
-Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, uint32_t count, Mesh* out,
-                     std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats,
-                     const ClusterMeshOptions& options) {
-  return mesh_clusters(surface, mesh_edges(surface), label, count, out, cell_of_vertex, stats, options);
+bool per_cell_sums(int option) {
+  return option > 0 || (option < 0 && tbb::this_task_arena::max_concurrency() >= 8);
 }
 
-Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vector<uint32_t>& label, uint32_t count,
-                     Mesh* out, std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats,
-                     const ClusterMeshOptions& options) {
+DualSurface dual_surface(const Mesh& surface, const MeshEdges& edges, bool with_planes) {
   const size_t nv = surface.vertex_count(), nf = surface.face_count();
-  if (label.size() != nv) return invalid_argument("cluster mesh: one label per vertex expected");
-  if (edges.vertex_count() != nv) return invalid_argument("cluster mesh: edges of another mesh");
-  ClusterMeshStats st;
-  st.cells = count;
-
-  // Boundary edges of the refined surface (one face), and the cells on them.
-  // on_boundary[3 f + c]: face f's edge from corner c is a boundary edge.
-  std::vector<char> on_boundary(3 * nf, 0);
-  std::vector<double> sharp_length(count, 0.0);  // per cell, the length of its input's sharp edges
+  DualSurface facts;
+  std::vector<char>& on_boundary = facts.on_boundary;
+  on_boundary.assign(3 * nf, 0);
   auto face_normal = [&](size_t f) {
     const uint32_t* t = &surface.indices[3 * f];
     const Vector3d a = eig(load3d(surface.positions.data(), t[0]));
@@ -471,10 +485,8 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
         (two[0] == UINT32_MAX ? two[0] : two[1]) = uint32_t(i / 3);
       }
     });
-    // A sharp edge (faces more than 30 degrees apart, the flips' crease): its
-    // length counts towards the cells of both its ends; in (u, w) order. The
-    // test per edge in parallel, the sums in edge order (the same bits on any
-    // thread count).
+    // A sharp edge: faces more than 30 degrees apart (the flips' crease),
+    // tested per edge in parallel.
     std::vector<char> sharp(edges.neighbor.size(), 0);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 2048), [&](const tbb::blocked_range<uint32_t>& r) {
       for (uint32_t u = r.begin(); u != r.end(); ++u)
@@ -484,17 +496,46 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
         }
     });
     // The sharp entries in row order (few: a scan's creases, a CAD model's
-    // edges), then their sums.
-    const std::vector<std::pair<uint32_t, uint32_t>> sharp_edges = collect_in_order<std::pair<uint32_t, uint32_t>>(
+    // edges).
+    facts.sharp_edges = collect_in_order<std::pair<uint32_t, uint32_t>>(
         nv, [&](size_t u, std::vector<std::pair<uint32_t, uint32_t>>* out) {
           for (uint32_t e = edges.offset[u]; e < edges.offset[u + 1]; ++e)
             if (sharp[e]) out->push_back({uint32_t(u), edges.neighbor[e]});
         }, 4096);
-    for (const auto& [u, w] : sharp_edges) {
-      const double len = (eig(load3d(surface.positions.data(), u)) - eig(load3d(surface.positions.data(), w))).norm();
-      if (label[u] != UINT32_MAX) sharp_length[label[u]] += len;
-      if (label[w] != UINT32_MAX && label[w] != label[u]) sharp_length[label[w]] += len;
-    }
+  }
+  if (with_planes) face_planes(surface, &facts.normal, &facts.area);
+  return facts;
+}
+
+Status mesh_clusters(const Mesh& surface, const std::vector<uint32_t>& label, uint32_t count, Mesh* out,
+                     std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats,
+                     const ClusterMeshOptions& options) {
+  return mesh_clusters(surface, mesh_edges(surface), label, count, out, cell_of_vertex, stats, options);
+}
+
+Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vector<uint32_t>& label, uint32_t count,
+                     Mesh* out, std::vector<uint32_t>* cell_of_vertex, ClusterMeshStats* stats,
+                     const ClusterMeshOptions& options) {
+  const size_t nv = surface.vertex_count(), nf = surface.face_count();
+  if (label.size() != nv) return invalid_argument("cluster mesh: one label per vertex expected");
+  if (edges.vertex_count() != nv) return invalid_argument("cluster mesh: edges of another mesh");
+  ClusterMeshStats st;
+  st.cells = count;
+
+  // The surface's own facts (dual_surface), made beside the CVT or here.
+  const bool per_cell = per_cell_sums(options.per_cell_sums);
+  DualSurface made;
+  if (!options.surface_facts) made = dual_surface(surface, edges, per_cell);
+  const DualSurface& facts = options.surface_facts ? *options.surface_facts : made;
+  if (facts.on_boundary.size() != 3 * nf) return invalid_argument("cluster mesh: the facts of another surface");
+  const std::vector<char>& on_boundary = facts.on_boundary;
+  // Per cell, the length of its input's sharp edges: each sharp edge's
+  // length towards the cells of both its ends, in (u, w) order.
+  std::vector<double> sharp_length(count, 0.0);
+  for (const auto& [u, w] : facts.sharp_edges) {
+    const double len = (eig(load3d(surface.positions.data(), u)) - eig(load3d(surface.positions.data(), w))).norm();
+    if (label[u] != UINT32_MAX) sharp_length[label[u]] += len;
+    if (label[w] != UINT32_MAX && label[w] != label[u]) sharp_length[label[w]] += len;
   }
   std::vector<char> boundary_cell(count, 0);
 
@@ -552,28 +593,19 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       }
     }
   };
-  auto face_plane = [&](size_t f, Vector3d* n, double* area) {
-    const uint32_t* t = &surface.indices[3 * f];
-    const Vector3d a = corner(t, 0), b = corner(t, 1), c = corner(t, 2);
-    const Vector3d cr = (b - a).cross(c - a);
-    *area = 0.5 * cr.norm();
-    if (*area > 0) *n = cr.normalized();
-  };
-  const bool per_cell = options.per_cell_sums > 0 ||
-                        (options.per_cell_sums < 0 && tbb::this_task_arena::max_concurrency() >= 8);
   if (!per_cell) {
     for (size_t f = 0; f < nf; ++f) {
       Vector3d n;
       double area;
-      face_plane(f, &n, &area);
+      face_plane(surface, f, &n, &area);
       if (area > 0) add_face(f, n, area, UINT32_MAX);
     }
   } else {
-    std::vector<Vector3d> normal(nf);
-    std::vector<double> face_area(nf);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 4096), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t f = r.begin(); f != r.end(); ++f) face_plane(f, &normal[f], &face_area[f]);
-    });
+    std::vector<Vec3d> normal_made;
+    std::vector<double> area_made;
+    if (facts.normal.size() != nf) face_planes(surface, &normal_made, &area_made);
+    const std::vector<Vec3d>& normal = facts.normal.size() == nf ? facts.normal : normal_made;
+    const std::vector<double>& face_area = facts.normal.size() == nf ? facts.area : area_made;
     // Each cell's faces, in face order: by ranges of cells, one per thread.
     in_vertex_ranges(
         count,
@@ -587,7 +619,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
         256);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 16), [&](const tbb::blocked_range<uint32_t>& r) {
       for (uint32_t cell = r.begin(); cell != r.end(); ++cell)
-        for (uint32_t f : cell_faces[cell].face) add_face(f, normal[f], face_area[f], cell);
+        for (uint32_t f : cell_faces[cell].face) add_face(f, eig(normal[f]), face_area[f], cell);
     });
   }
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 64), [&](const tbb::blocked_range<uint32_t>& r) {

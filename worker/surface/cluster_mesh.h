@@ -19,9 +19,11 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/mesh.h"
+#include "core/vec3.h"
 #include "surface/mesh_edges.h"
 #include "surface/meshing.h"
 #include "surface/offset_fit.h"
@@ -39,6 +41,26 @@ struct ClusterMeshStats {
   OffsetFitStats offset;       // fit_offsets' account
 };
 
+// What the dual reads of the refined surface alone, whatever its cells: made
+// on its own thread while the CVT runs (pipeline.cpp), which does not need it.
+struct DualSurface {
+  // on_boundary[3 f + c]: face f's edge from corner c is a boundary edge (one face).
+  std::vector<char> on_boundary;
+  // Edges whose first two faces (in face order) are more than 30 degrees
+  // apart, the flips' crease: (u, w) with u < w, in the rows' order.
+  std::vector<std::pair<uint32_t, uint32_t>> sharp_edges;
+  // Per face, its unit normal and area (the quadrics' planes), when made
+  // with face_planes; empty otherwise.
+  std::vector<Vec3d> normal;
+  std::vector<double> area;
+};
+// with_planes: also the faces' planes (what mesh_clusters' per-cell sums
+// read; its one loop makes them as it goes).
+DualSurface dual_surface(const Mesh& surface, const MeshEdges& edges, bool with_planes);
+// Whether mesh_clusters sums the cells' quadrics per cell (and reads the
+// faces' planes) with these options on this machine.
+bool per_cell_sums(int option);
+
 struct ClusterMeshOptions {
   // Rounds of tangential relaxation, each followed by Delaunay flips, before
   // the fit (0: the CVT's vertices as they are).
@@ -48,6 +70,9 @@ struct ClusterMeshOptions {
   // more threads. The same bits either way.
   int per_cell_sums = -1;
   OffsetFitOptions offset;  // the L2 fit of the vertices along their normals (on by default)
+  // dual_surface(surface, edges, ...) made already (null: made here). Its
+  // planes are made here if it has none and the per-cell sums read them.
+  const DualSurface* surface_facts = nullptr;
 };
 
 // surface: the refined input; label: its vertices' cells, count cells.

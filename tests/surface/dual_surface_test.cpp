@@ -1,0 +1,143 @@
+// The dual's facts of the surface alone (cluster_mesh.h: dual_surface), which
+// the pipeline makes beside the CVT: its boundary and sharp edges and the
+// faces' planes are right on a shape whose answers are known, and
+// mesh_clusters gives the same bits with them made beforehand (with or
+// without the planes, per-cell sums or the one loop) as without them.
+#include "surface/cluster_mesh.h"
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <map>
+#include <string>
+#include <utility>
+#include <tuple>
+#include <vector>
+
+#include "surface/mesh_edges.h"
+#include "surface/surface_cvt.h"
+
+namespace vpr {
+namespace {
+
+// A unit cube without its top (z = 1), each side an n x n grid of squares cut
+// into two triangles, outward, corners shared between sides: one boundary
+// loop of 4n edges and 8n edges on its eight right-angled creases.
+Mesh open_box(int n) {
+  Mesh m;
+  std::map<std::tuple<int, int, int>, uint32_t> index;  // grid point (in 1/n) -> vertex
+  auto vertex = [&](int i, int j, int k) {
+    const auto key = std::make_tuple(i, j, k);
+    auto it = index.find(key);
+    if (it != index.end()) return it->second;
+    const uint32_t v = uint32_t(m.vertex_count());
+    for (int c : {i, j, k}) m.positions.push_back(float(c) / float(n));
+    index.emplace(key, v);
+    return v;
+  };
+  // The sides x = 0, x = 1, y = 0, y = 1 and z = 0; each triangle turned
+  // outwards (away from the cube's centre).
+  for (const auto& [axis, at] : {std::pair{2, 0}, std::pair{0, 0}, std::pair{0, 1}, std::pair{1, 0}, std::pair{1, 1}})
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) {
+        auto point = [&](int da, int db) {
+          int p[3];
+          p[axis] = at * n;
+          p[(axis + 1) % 3] = a + da;
+          p[(axis + 2) % 3] = b + db;
+          return vertex(p[0], p[1], p[2]);
+        };
+        const uint32_t q[4] = {point(0, 0), point(1, 0), point(1, 1), point(0, 1)};
+        for (const std::array<uint32_t, 3>& t : {std::array<uint32_t, 3>{q[0], q[1], q[2]}, {q[0], q[2], q[3]}}) {
+          const Vec3d p0 = load3d(m.positions.data(), t[0]), p1 = load3d(m.positions.data(), t[1]),
+                      p2 = load3d(m.positions.data(), t[2]);
+          const bool out = dot(cross(p1 - p0, p2 - p0), p0 - Vec3d{0.5, 0.5, 0.5}) > 0;
+          for (uint32_t v : {t[0], out ? t[1] : t[2], out ? t[2] : t[1]}) m.indices.push_back(v);
+        }
+      }
+  return m;
+}
+
+TEST(DualSurfaceTest, BoundaryCreasesAndPlanesOfAnOpenBox) {
+  const int n = 12;
+  const Mesh box = open_box(n);
+  const MeshEdges edges = mesh_edges(box);
+  const DualSurface facts = dual_surface(box, edges, true);
+  ASSERT_EQ(facts.on_boundary.size(), 3 * box.face_count());
+  size_t boundary = 0;
+  for (char b : facts.on_boundary) boundary += b != 0;
+  EXPECT_EQ(boundary, size_t(4 * n));
+  // Sharp: the four upright edges and the four of the bottom, none on the rim
+  // (one face) and none inside a side (flat).
+  EXPECT_EQ(facts.sharp_edges.size(), size_t(8 * n));
+  for (const auto& [u, w] : facts.sharp_edges) {
+    EXPECT_LT(u, w);
+    int on_faces = 0;  // coordinates at 0 or 1 that both ends share: two on a crease
+    for (int k = 0; k < 3; ++k) {
+      const float a = box.positions[3 * u + k], b = box.positions[3 * w + k];
+      on_faces += a == b && (a == 0.0f || a == 1.0f);
+    }
+    EXPECT_EQ(on_faces, 2) << u << " " << w;
+  }
+  // Planes: unit normals pointing out of the box, five unit sides of area.
+  ASSERT_EQ(facts.normal.size(), box.face_count());
+  double area = 0;
+  for (size_t f = 0; f < box.face_count(); ++f) {
+    area += facts.area[f];
+    EXPECT_NEAR(norm(facts.normal[f]), 1.0, 1e-12);
+    const uint32_t* t = &box.indices[3 * f];
+    const Vec3d centroid = (load3d(box.positions.data(), t[0]) + load3d(box.positions.data(), t[1]) +
+                            load3d(box.positions.data(), t[2])) *
+                           (1.0 / 3);
+    EXPECT_GT(dot(facts.normal[f], centroid - Vec3d{0.5, 0.5, 0.5}), 0.0) << "face " << f;
+  }
+  EXPECT_NEAR(area, 5.0, 1e-9);
+  // Without planes: none.
+  const DualSurface bare = dual_surface(box, edges, false);
+  EXPECT_TRUE(bare.normal.empty());
+  EXPECT_EQ(bare.on_boundary, facts.on_boundary);
+  EXPECT_EQ(bare.sharp_edges, facts.sharp_edges);
+}
+
+TEST(DualSurfaceTest, FactsMadeBeforehandGiveTheSameMesh) {
+  const Mesh box = open_box(24);
+  const MeshEdges edges = mesh_edges(box);
+  std::vector<uint32_t> label;
+  CvtStats cvt;
+  CvtOptions cvt_options;
+  cvt_options.anisotropy = 0.04 * std::sqrt(3.0);
+  ASSERT_TRUE(surface_cvt(box, edges, vertex_areas(box), 300, cvt_options, &label, &cvt).ok());
+  const DualSurface with_planes = dual_surface(box, edges, true), bare = dual_surface(box, edges, false);
+  for (int per_cell : {0, 1}) {
+    ClusterMeshOptions options;
+    options.per_cell_sums = per_cell;
+    Mesh reference;
+    std::vector<uint32_t> reference_cells;
+    ClusterMeshStats stats;
+    ASSERT_TRUE(mesh_clusters(box, edges, label, cvt.clusters, &reference, &reference_cells, &stats, options).ok());
+    ASSERT_GT(reference.face_count(), 500u);
+    EXPECT_EQ(stats.boundary_loops, 1u);
+    for (const DualSurface* facts : {&with_planes, &bare}) {
+      options.surface_facts = facts;
+      Mesh out;
+      std::vector<uint32_t> cells;
+      ASSERT_TRUE(mesh_clusters(box, edges, label, cvt.clusters, &out, &cells, nullptr, options).ok());
+      EXPECT_EQ(out.positions, reference.positions) << "per cell " << per_cell << ", planes " << !facts->normal.empty();
+      EXPECT_EQ(out.indices, reference.indices) << "per cell " << per_cell << ", planes " << !facts->normal.empty();
+      EXPECT_EQ(cells, reference_cells);
+    }
+  }
+  // The facts of another surface are refused, naming the problem.
+  const Mesh other = open_box(6);
+  const DualSurface wrong = dual_surface(other, mesh_edges(other), false);
+  ClusterMeshOptions options;
+  options.surface_facts = &wrong;
+  Mesh out;
+  const Status s = mesh_clusters(box, edges, label, cvt.clusters, &out, nullptr, nullptr, options);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("another surface"), std::string::npos) << s.to_string();
+}
+
+}  // namespace
+}  // namespace vpr
