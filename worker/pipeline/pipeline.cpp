@@ -703,11 +703,16 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       std::future<SurfaceParts> parts_beside =
           std::async(std::launch::async, [&refined] { return surface_parts(refined.mesh, refined.edges); });
       // So are the dual's facts of the surface (its boundary and sharp
-      // edges, the faces' planes): made beside the CVT as well, above all
-      // while a GPU runs the CVT's sweeps and the host waits.
-      const bool per_cell = per_cell_sums(options.cluster_mesh.per_cell_sums);
-      std::future<DualSurface> dual_beside = std::async(
-          std::launch::async, [&refined, per_cell] { return dual_surface(refined.mesh, refined.edges, per_cell); });
+      // edges, the faces' planes): made while a GPU runs the CVT's sweeps
+      // and the host would wait (igea at 10,000 on an H200: 18 ms of them
+      // beside 38 ms of sweeps). Made beside the CVT's own host steps they
+      // only slow those down: on 2 cores horse's job took 4-10% longer.
+      std::future<DualSurface> dual_beside;
+      auto make_dual_beside = [&dual_beside, &refined, per_cell = per_cell_sums(options.cluster_mesh.per_cell_sums)] {
+        if (!dual_beside.valid())
+          dual_beside = std::async(std::launch::async,
+                                   [&refined, per_cell] { return dual_surface(refined.mesh, refined.edges, per_cell); });
+      };
       std::vector<uint32_t> label;
       CvtOptions cvt = options.cvt;
       cvt.seed = options.sampling.seed;
@@ -724,7 +729,9 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
         if (rounds) twin.device_sweeps = cpu::cvt_colour_sweeps;
 #ifdef VPR_HAVE_CUDA
         if (rounds && c.device == Device::kCuda) {
-          twin.device_sweeps = [&c](const CvtSweepInput& in, std::vector<uint32_t>* l, CvtSweepOutput* o) {
+          twin.device_sweeps = [&c, &make_dual_beside](const CvtSweepInput& in, std::vector<uint32_t>* l,
+                                                       CvtSweepOutput* o) {
+            make_dual_beside();
             return cuda::cvt_colour_sweeps(in, l, o, c);
           };
           twin.device_smoothing = [&c](const MeshEdges& edges, int passes, std::vector<Vec3d>* values) {
@@ -736,6 +743,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
         }
 #else
         (void)c;
+        (void)make_dual_beside;
 #endif
         VPR_RETURN_IF_ERROR(
             surface_cvt(refined.mesh, refined.edges, data->mass, options.target_vertices, twin, &label, &result.cvt));
@@ -770,8 +778,11 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             std::vector<uint32_t> cell;
             const uint32_t cells = result.cvt.clusters;
             ClusterMeshOptions mesh_options = options.cluster_mesh;
-            const DualSurface facts = dual_beside.get();
-            mesh_options.surface_facts = &facts;
+            DualSurface facts;
+            if (dual_beside.valid()) {
+              facts = dual_beside.get();
+              mesh_options.surface_facts = &facts;
+            }
 #ifdef VPR_HAVE_CUDA
             // The L2 fit's samples matched and summed on the GPU (the host's
             // bits; the host fits if the device fails).
