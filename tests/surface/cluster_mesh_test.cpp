@@ -1,8 +1,12 @@
-// The dual's facts of the surface alone (cluster_mesh.h: dual_surface), which
-// the pipeline makes beside the CVT: its boundary and sharp edges and the
-// faces' planes are right on a shape whose answers are known, and
-// mesh_clusters gives the same bits with them made beforehand (with or
-// without the planes, per-cell sums or the one loop) as without them.
+// Parts of mesh_clusters (cluster_mesh.h) made apart or skipped where they
+// cannot matter. The dual's facts of the surface alone (dual_surface), which
+// the pipeline makes while a GPU runs the CVT's sweeps: its boundary and
+// sharp edges and the faces' planes are right on a shape whose answers are
+// known, and mesh_clusters gives the same bits with them made beforehand
+// (with or without the planes, per-cell sums or the one loop) as without
+// them. Cells whose points fall within a thousandth of a spacing of each
+// other: found (the in-order pass runs only when some pair is that close)
+// and moved apart.
 #include "surface/cluster_mesh.h"
 
 #include <gtest/gtest.h>
@@ -137,6 +141,62 @@ TEST(DualSurfaceTest, FactsMadeBeforehandGiveTheSameMesh) {
   const Status s = mesh_clusters(box, edges, label, cvt.clusters, &out, nullptr, nullptr, options);
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("another surface"), std::string::npos) << s.to_string();
+}
+
+// A flat n x n grid of unit squares in z = 0, two triangles each.
+Mesh grid(int n) {
+  Mesh m;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i)
+      for (float c : {float(i), float(j), 0.0f}) m.positions.push_back(c);
+  auto at = [n](int i, int j) { return uint32_t(j * (n + 1) + i); };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      for (uint32_t v : {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i, j + 1)})
+        m.indices.push_back(v);
+  return m;
+}
+
+// Cells on a grid: 0 a ring round (cx, cy) (from 1.2 to 4 squares out), 1
+// the disk inside it, then the rest by quadrant about the grid's middle.
+// About a grid point both have their centroid there, and both touch it: the
+// ring through the faces between its inner vertices and the disk's.
+std::vector<uint32_t> ring_and_disk(const Mesh& m, double cx, double cy, double mid) {
+  std::vector<uint32_t> label(m.vertex_count());
+  for (size_t v = 0; v < label.size(); ++v) {
+    const double x = m.positions[3 * v], y = m.positions[3 * v + 1];
+    const double r = std::hypot(x - cx, y - cy);
+    label[v] = r < 1.2 ? 1u : r < 4 ? 0u : 2u + (x >= mid ? 1u : 0u) + (y >= mid ? 2u : 0u);
+  }
+  return label;
+}
+
+TEST(ClusterMeshTest, CellsAtOnePointAreMovedApartAndOnlyThen) {
+  const Mesh flat = grid(24);
+  const MeshEdges edges = mesh_edges(flat);
+  ClusterMeshOptions options;
+  options.relax_rounds = 0;
+  options.offset.enabled = false;
+  // The ring and the disk about the grid point (8, 8): both cells' points
+  // land on it, so the disk's (the later cell) moves to its nearest element
+  // clear of the ring's. (The disk meets no third cell, so the dual leaves
+  // it out; what is counted is the move.)
+  {
+    Mesh out;
+    ClusterMeshStats stats;
+    ASSERT_TRUE(mesh_clusters(flat, edges, ring_and_disk(flat, 8, 8, 12), 6, &out, nullptr, &stats, options).ok());
+    EXPECT_EQ(stats.points_separated, 1u);
+    EXPECT_GT(out.face_count(), 0u);
+  }
+  // About (8.5, 8.25), off the grid points, the disk's centroid and the
+  // ring's differ: nothing moves.
+  {
+    Mesh out;
+    ClusterMeshStats stats;
+    ASSERT_TRUE(mesh_clusters(flat, edges, ring_and_disk(flat, 8.5, 8.25, 12), 6, &out, nullptr, &stats, options).ok());
+    EXPECT_EQ(stats.points_separated, 0u);
+    EXPECT_GT(out.face_count(), 0u);
+  }
 }
 
 }  // namespace
