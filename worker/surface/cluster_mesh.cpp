@@ -148,24 +148,27 @@ size_t close_dual_holes(std::vector<std::array<uint32_t, 3>>* tris, OnBoundary o
   // Directed edges as sorted keys (u << 32 | v); the fans' edges go to a
   // second sorted list, so that later fans see them.
   auto key = [](uint32_t u, uint32_t v) { return uint64_t(u) << 32 | v; };
-  std::vector<uint64_t> directed, added;
-  directed.reserve(3 * tris->size());
+  // Made, sorted and searched in parallel (plain keys: one order on any
+  // thread count).
+  std::vector<uint64_t> directed(3 * tris->size()), added;
   uint32_t top = 0;
-  for (const auto& t : *tris)
-    for (int c = 0; c < 3; ++c) {
-      directed.push_back(key(t[c], t[(c + 1) % 3]));
-      top = std::max(top, t[c]);
-    }
-  std::sort(directed.begin(), directed.end());
+  for (const auto& t : *tris) top = std::max({top, t[0], t[1], t[2]});
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, tris->size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f != r.end(); ++f)
+      for (int c = 0; c < 3; ++c) directed[3 * f + c] = key((*tris)[f][c], (*tris)[f][(c + 1) % 3]);
+  });
+  tbb::parallel_sort(directed.begin(), directed.end());
   directed.erase(std::unique(directed.begin(), directed.end()), directed.end());
   auto has = [&](uint32_t u, uint32_t v) {
     return std::binary_search(directed.begin(), directed.end(), key(u, v)) ||
            std::binary_search(added.begin(), added.end(), key(u, v));
   };
   // Boundary edges (no opposite), in (u, v) order: next[u] is a run of them.
-  std::vector<uint64_t> open;
-  for (uint64_t e : directed)
-    if (!std::binary_search(directed.begin(), directed.end(), key(uint32_t(e), uint32_t(e >> 32)))) open.push_back(e);
+  const std::vector<uint64_t> open = collect_in_order<uint64_t>(
+      directed.size(), [&](size_t i, std::vector<uint64_t>* out) {
+        const uint64_t e = directed[i];
+        if (!std::binary_search(directed.begin(), directed.end(), key(uint32_t(e), uint32_t(e >> 32)))) out->push_back(e);
+      }, 4096);
   auto outs = [&](uint32_t u) {
     const auto lo = std::lower_bound(open.begin(), open.end(), key(u, 0));
     const auto hi = std::lower_bound(lo, open.end(), key(u + 1, 0));
@@ -678,7 +681,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
 
   // An input boundary loop met by exactly three cells: their triangle would
   // cap the hole (a small rim closes), so it is not made.
-  std::set<std::array<uint32_t, 3>> seen_triples;
+  std::set<std::array<uint32_t, 3>> caps;
   {
     std::vector<uint32_t> parent(nv);
     std::iota(parent.begin(), parent.end(), 0u);
@@ -703,7 +706,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       if (cells.size() == 3) {
         auto it = cells.begin();
         const uint32_t a = *it++, b = *it++, c = *it;
-        seen_triples.insert({a, b, c});  // as if made already
+        caps.insert({a, b, c});
       }
   }
   // Dual triangles: one per cell triple (the first face's orientation).
@@ -716,12 +719,26 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
         if (a == b || b == c || a == c || a == UINT32_MAX || b == UINT32_MAX || c == UINT32_MAX) return;
         out->push_back({a, b, c});
       });
-  std::vector<std::array<uint32_t, 3>> tris;
-  for (const std::array<uint32_t, 3>& t : triples) {
-    std::array<uint32_t, 3> sorted = t;
-    std::sort(sorted.begin(), sorted.end());
-    if (seen_triples.insert(sorted).second) tris.push_back(t);
-  }
+  // Each triple's first face kept, unless its loop caps a hole: the
+  // triples sorted with their face order in parallel, the first of each run
+  // marked, then taken in face order.
+  std::vector<std::pair<std::array<uint32_t, 3>, uint32_t>> keyed(triples.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, triples.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      keyed[i] = {triples[i], uint32_t(i)};
+      std::sort(keyed[i].first.begin(), keyed[i].first.end());
+    }
+  });
+  tbb::parallel_sort(keyed.begin(), keyed.end());  // distinct pairs: one order on any thread count
+  std::vector<char> first(triples.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, keyed.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i)
+      first[keyed[i].second] = (i == 0 || keyed[i].first != keyed[i - 1].first) && !caps.count(keyed[i].first);
+  });
+  std::vector<std::array<uint32_t, 3>> tris = collect_in_order<std::array<uint32_t, 3>>(
+      triples.size(), [&](size_t i, std::vector<std::array<uint32_t, 3>>* out) {
+        if (first[i]) out->push_back(triples[i]);
+      }, 4096);
 
   st.holes_closed += close_dual_holes(&tris, [&](uint32_t cell) { return boundary_cell[cell] != 0; },
                                       &st.boundary_loops);
