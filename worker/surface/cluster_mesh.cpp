@@ -350,39 +350,24 @@ void drop_extra_pieces(Mesh* mesh, std::vector<uint32_t>* source, const Mesh& su
 
 // Whether the points of two cells with weight lie within `near` of each
 // other (x, y, z per cell). Most duals have no such pair; then no cell of the
-// in-order pass below clashes, and it is skipped. The points sorted by their
-// grid cell of side `near` in parallel, each one's 27 neighbouring grid cells
-// searched in parallel.
+// in-order pass below clashes, and it is skipped. The points sorted by x in
+// parallel, each one compared with those after it less than `near` further
+// in x (x differences of floats are exact in double, so no closer pair is
+// missed).
 bool any_within(const std::vector<float>& points, const std::vector<double>& weight, double near) {
-  struct Entry {
-    std::array<int64_t, 3> at;
-    uint32_t cell;
-    bool operator<(const Entry& o) const { return at != o.at ? at < o.at : cell < o.cell; }
-  };
   auto point = [&](uint32_t cell) {
     return Vector3d(points[3 * size_t(cell)], points[3 * size_t(cell) + 1], points[3 * size_t(cell) + 2]);
   };
-  std::vector<Entry> sorted = collect_in_order<Entry>(weight.size(), [&](size_t c, std::vector<Entry>* out) {
-    if (!(weight[c] > 0)) return;
-    const Vector3d p = point(uint32_t(c));
-    out->push_back({{int64_t(std::floor(p.x() / near)), int64_t(std::floor(p.y() / near)),
-                     int64_t(std::floor(p.z() / near))},
-                    uint32_t(c)});
-  });
-  tbb::parallel_sort(sorted.begin(), sorted.end());
+  std::vector<std::pair<double, uint32_t>> by_x = collect_in_order<std::pair<double, uint32_t>>(
+      weight.size(), [&](size_t c, std::vector<std::pair<double, uint32_t>>* out) {
+        if (weight[c] > 0) out->push_back({double(points[3 * c]), uint32_t(c)});
+      });
+  tbb::parallel_sort(by_x.begin(), by_x.end());
   std::atomic<bool> found{false};
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, sorted.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end() && !found.load(std::memory_order_relaxed); ++i) {
-      const Vector3d p = point(sorted[i].cell);
-      for (int64_t dx = -1; dx <= 1; ++dx)
-        for (int64_t dy = -1; dy <= 1; ++dy)
-          for (int64_t dz = -1; dz <= 1; ++dz) {
-            const std::array<int64_t, 3> at = {sorted[i].at[0] + dx, sorted[i].at[1] + dy, sorted[i].at[2] + dz};
-            for (auto it = std::lower_bound(sorted.begin(), sorted.end(), Entry{at, 0}); it != sorted.end() && it->at == at;
-                 ++it)
-              if (it->cell != sorted[i].cell && (point(it->cell) - p).squaredNorm() < near * near) found = true;
-          }
-    }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, by_x.size(), 2048), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end() && !found.load(std::memory_order_relaxed); ++i)
+      for (size_t j = i + 1; j < by_x.size() && by_x[j].first - by_x[i].first < near; ++j)
+        if ((point(by_x[j].second) - point(by_x[i].second)).squaredNorm() < near * near) found = true;
   });
   return found;
 }
