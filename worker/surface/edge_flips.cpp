@@ -1,5 +1,8 @@
 #include "surface/edge_flips.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -76,6 +79,42 @@ size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
       if (slots[k].other == hi) return true;
     return std::binary_search(made.begin(), made.end(), key2(a, b));
   };
+  // An edge x-y between its faces (x, y, c) and (y, x, d) as they are now:
+  // false where they share no third pair of ends.
+  struct Quad {
+    uint32_t x, y, c, d;
+    bool consistent;  // the second face runs y -> x
+  };
+  auto quad_of = [&](uint32_t a, const Slot& slot, Quad* q) {
+    const uint32_t b = slot.other;
+    // Rotate f0 to (x, y, c) with {x, y} = {a, b}; f1 then runs (y, x, d).
+    const uint32_t* t0 = &mesh->indices[3 * slot.face[0]];
+    const uint32_t* t1 = &mesh->indices[3 * slot.face[1]];
+    int k0 = 0;
+    while (!((t0[k0] == a || t0[k0] == b) && (t0[(k0 + 1) % 3] == a || t0[(k0 + 1) % 3] == b))) ++k0;
+    q->x = t0[k0], q->y = t0[(k0 + 1) % 3], q->c = t0[(k0 + 2) % 3];
+    q->d = UINT32_MAX;
+    for (int k = 0; k < 3; ++k)
+      if (t1[k] != a && t1[k] != b) q->d = t1[k];
+    if (q->d == UINT32_MAX || q->c == q->d) return false;
+    q->consistent = false;
+    for (int k = 0; k < 3; ++k) q->consistent = q->consistent || (t1[k] == q->y && t1[(k + 1) % 3] == q->x);
+    return true;
+  };
+  // want() of every edge the loop below looks at, first, in parallel: a flip
+  // rewrites only its two faces, and the loop passes over an edge with a
+  // face flipped earlier in the pass, so every edge it does take still has
+  // the faces it has now. (want() reads the positions alone; the same flips.)
+  std::vector<char> wanted(slots.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 1024), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t a = r.begin(); a != r.end(); ++a)
+      for (uint32_t j = start[a]; j < start[a] + used[a]; ++j) {
+        const Slot& slot = slots[j];
+        if (slot.face[1] < 0 || !(every_edge || slot.look)) continue;
+        Quad q;
+        wanted[j] = quad_of(a, slot, &q) && q.consistent && want(q.x, q.y, q.c, q.d);
+      }
+  });
   std::vector<char> touched(nf, 0);
   std::vector<char> next_recheck(nf, 0);
   size_t flips = 0;
@@ -85,24 +124,16 @@ size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
       if (slot.face[1] < 0 || !(every_edge || slot.look)) continue;
       const int64_t f0 = slot.face[0], f1 = slot.face[1];
       if (touched[f0] || touched[f1]) continue;
-      const uint32_t b = slot.other;
-      // Rotate f0 to (x, y, c) with {x, y} = {a, b}; f1 then runs (y, x, d).
-      uint32_t* t0 = &mesh->indices[3 * f0];
-      uint32_t* t1 = &mesh->indices[3 * f1];
-      int k0 = 0;
-      while (!((t0[k0] == a || t0[k0] == b) && (t0[(k0 + 1) % 3] == a || t0[(k0 + 1) % 3] == b))) ++k0;
-      const uint32_t x = t0[k0], y = t0[(k0 + 1) % 3], c = t0[(k0 + 2) % 3];
-      uint32_t d = UINT32_MAX;
-      for (int k = 0; k < 3; ++k)
-        if (t1[k] != a && t1[k] != b) d = t1[k];
-      if (d == UINT32_MAX || c == d) continue;
+      Quad q;
+      if (!quad_of(a, slot, &q)) continue;
+      const uint32_t x = q.x, y = q.y, c = q.c, d = q.d;
       if (exists(c, d)) {
         next_recheck[f0] = next_recheck[f1] = 1;
         continue;
       }
-      bool consistent = false;  // f1 must run y -> x
-      for (int k = 0; k < 3; ++k) consistent = consistent || (t1[k] == y && t1[(k + 1) % 3] == x);
-      if (!consistent || !want(x, y, c, d)) continue;
+      if (!wanted[j]) continue;
+      uint32_t* t0 = &mesh->indices[3 * f0];
+      uint32_t* t1 = &mesh->indices[3 * f1];
       t0[0] = c, t0[1] = x, t0[2] = d;
       t1[0] = d, t1[1] = y, t1[2] = c;
       made.insert(std::upper_bound(made.begin(), made.end(), key2(c, d)), key2(c, d));  // no second c-d this pass
