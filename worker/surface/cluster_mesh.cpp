@@ -859,11 +859,18 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   delaunay_flips(out);
   std::vector<char> output_boundary(out->vertex_count(), 0);
   {
-    std::unordered_map<uint64_t, int> uses;
-    for (size_t f = 0; f < out->face_count(); ++f)
-      for (int c = 0; c < 3; ++c) ++uses[key2(out->indices[3 * f + c], out->indices[3 * f + (c + 1) % 3])];
-    for (const auto& [e, n] : uses)
-      if (n != 2) output_boundary[uint32_t(e >> 32)] = output_boundary[uint32_t(e)] = 1;
+    // The ends of every edge not used by exactly two faces: the undirected
+    // edges sorted (in parallel), each run's length its uses.
+    std::vector<uint64_t> uses(out->indices.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, out->face_count(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t f = r.begin(); f != r.end(); ++f)
+        for (int c = 0; c < 3; ++c) uses[3 * f + c] = key2(out->indices[3 * f + c], out->indices[3 * f + (c + 1) % 3]);
+    });
+    tbb::parallel_sort(uses.begin(), uses.end());
+    for (size_t i = 0, j; i < uses.size(); i = j) {
+      for (j = i + 1; j < uses.size() && uses[j] == uses[i];) ++j;
+      if (j - i != 2) output_boundary[uint32_t(uses[i] >> 32)] = output_boundary[uint32_t(uses[i])] = 1;
+    }
   }
   if (options.relax_rounds > 0) {
     std::vector<Freedom> freedom(out->vertex_count(), Freedom::kFree);
