@@ -72,8 +72,13 @@ void boundary_loops(const Adjacency& adj, std::vector<uint32_t>* loop_of, std::v
   };
   loop_of->assign(nv, UINT32_MAX);
   loops->clear();
-  for (uint32_t s = 0; s < nv; ++s) {
-    if ((*loop_of)[s] != UINT32_MAX || !on_boundary(s)) continue;
+  // The boundary's vertices found in parallel, in order (most surfaces have
+  // few or none); the walks from them in that order, as over every vertex.
+  const std::vector<uint32_t> boundary = collect_in_order<uint32_t>(nv, [&](size_t v, std::vector<uint32_t>* out) {
+    if (on_boundary(uint32_t(v))) out->push_back(uint32_t(v));
+  });
+  for (const uint32_t s : boundary) {
+    if ((*loop_of)[s] != UINT32_MAX) continue;
     const uint32_t id = uint32_t(loops->size());
     loops->emplace_back();
     std::vector<uint32_t> stack = {s};
