@@ -141,6 +141,14 @@ TEST(DualSurfaceTest, FactsMadeBeforehandGiveTheSameMesh) {
   const Status s = mesh_clusters(box, edges, label, cvt.clusters, &out, nullptr, nullptr, options);
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("another surface"), std::string::npos) << s.to_string();
+  // Facts of the right size whose sharp edges name vertices the surface does
+  // not have: refused, never read out of bounds.
+  DualSurface forged = dual_surface(box, edges, false);
+  forged.sharp_edges.push_back({uint32_t(box.vertex_count()), uint32_t(box.vertex_count() + 7)});
+  options.surface_facts = &forged;
+  const Status f = mesh_clusters(box, edges, label, cvt.clusters, &out, nullptr, nullptr, options);
+  EXPECT_EQ(f.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(f.message().find("sharp edge"), std::string::npos) << f.to_string();
 }
 
 // A flat n x n grid of unit squares in z = 0, two triangles each.

@@ -561,6 +561,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   // length towards the cells of both its ends, in (u, w) order.
   std::vector<double> sharp_length(count, 0.0);
   for (const auto& [u, w] : facts.sharp_edges) {
+    if (u >= nv || w >= nv) return invalid_argument("cluster mesh: the facts of another surface (a sharp edge's end)");
     const double len = (eig(load3d(surface.positions.data(), u)) - eig(load3d(surface.positions.data(), w))).norm();
     if (label[u] != UINT32_MAX) sharp_length[label[u]] += len;
     if (label[w] != UINT32_MAX && label[w] != label[u]) sharp_length[label[w]] += len;
