@@ -42,7 +42,8 @@ Mesh open_box(int n) {
   };
   // The sides x = 0, x = 1, y = 0, y = 1 and z = 0; each triangle turned
   // outwards (away from the cube's centre).
-  for (const auto& [axis, at] : {std::pair{2, 0}, std::pair{0, 0}, std::pair{0, 1}, std::pair{1, 0}, std::pair{1, 1}})
+  for (const std::pair<int, int>& side : {std::pair{2, 0}, std::pair{0, 0}, std::pair{0, 1}, std::pair{1, 0}, std::pair{1, 1}}) {
+    const int axis = side.first, at = side.second;  // lambdas cannot capture structured bindings in C++17
     for (int a = 0; a < n; ++a)
       for (int b = 0; b < n; ++b) {
         auto point = [&](int da, int db) {
@@ -60,6 +61,7 @@ Mesh open_box(int n) {
           for (uint32_t v : {t[0], out ? t[1] : t[2], out ? t[2] : t[1]}) m.indices.push_back(v);
         }
       }
+  }
   return m;
 }
 
