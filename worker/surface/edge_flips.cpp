@@ -105,14 +105,17 @@ size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
   // rewrites only its two faces, and the loop passes over an edge with a
   // face flipped earlier in the pass, so every edge it does take still has
   // the faces it has now. (want() reads the positions alone; the same flips.)
-  std::vector<char> wanted(slots.size(), 0);
+  // Each looked-at edge's quad is kept for the loop (valid: it has one).
+  std::vector<Quad> quads(slots.size());
+  std::vector<char> valid(slots.size(), 0), wanted(slots.size(), 0);
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 1024), [&](const tbb::blocked_range<uint32_t>& r) {
     for (uint32_t a = r.begin(); a != r.end(); ++a)
       for (uint32_t j = start[a]; j < start[a] + used[a]; ++j) {
         const Slot& slot = slots[j];
         if (slot.face[1] < 0 || !(every_edge || slot.look)) continue;
-        Quad q;
-        wanted[j] = quad_of(a, slot, &q) && q.consistent && want(q.x, q.y, q.c, q.d);
+        Quad& q = quads[j];
+        valid[j] = quad_of(a, slot, &q);
+        wanted[j] = valid[j] && q.consistent && want(q.x, q.y, q.c, q.d);
       }
   });
   std::vector<char> touched(nf, 0);
@@ -124,9 +127,8 @@ size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
       if (slot.face[1] < 0 || !(every_edge || slot.look)) continue;
       const int64_t f0 = slot.face[0], f1 = slot.face[1];
       if (touched[f0] || touched[f1]) continue;
-      Quad q;
-      if (!quad_of(a, slot, &q)) continue;
-      const uint32_t x = q.x, y = q.y, c = q.c, d = q.d;
+      if (!valid[j]) continue;
+      const uint32_t x = quads[j].x, y = quads[j].y, c = quads[j].c, d = quads[j].d;
       if (exists(c, d)) {
         next_recheck[f0] = next_recheck[f1] = 1;
         continue;
