@@ -755,7 +755,9 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
                           : "",
                       result.cvt.converged ? " (converged)" : " (sweep limit)", e.front(), e.back());
         note = warm.from ? "from the cells of the try at " + std::to_string(warm.from->count) + " vertices, " +
-                               std::to_string(result.cvt.warm_merged) + " merged; " + text
+                               (result.cvt.warm_split > 0 ? std::to_string(result.cvt.warm_split) + " cut in two; "
+                                                          : std::to_string(result.cvt.warm_merged) + " merged; ") +
+                               text
                          : std::string(text);
         if (result.cvt.parts_below_minimum > 0)
           note += "; " + std::to_string(result.cvt.parts_below_minimum) + " of " + std::to_string(result.cvt.parts) +
@@ -1005,9 +1007,16 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   // on the tries before it, so none is made ahead (the tries ahead would
   // change which try starts from which). The elements per cell rise by the
   // range at most (16 per output vertex at the source's count).
+  // A try above the largest failing one, by at most kWarmRange, and with
+  // no passing try in range, starts from that failure's surface and cells
+  // in the same way, its largest cells cut in two (the elements per cell
+  // fall by the range at most: 14 per output vertex at the try's count).
+  // Before the first pass the search closes on the bound from below, so
+  // its last cold tries were each a whole back half there.
   constexpr double kWarmRange = 1.15;
   const bool warm_on = options.visual_target_warm && options.density != DensityMode::kPaper && !ahead_on;
   std::shared_ptr<WarmStart> source;  // the smallest passing try's, when warm_on
+  std::shared_ptr<WarmStart> below;   // the largest failing try's, when warm_on
   // Near the bound a failing score lies about this far below it (SSIM moves
   // by about 0.001 between counts 1% apart there).
   constexpr double kFailingMargin = 0.0005;
@@ -1065,6 +1074,8 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
       warm.keep = &kept;
       if (source && count < source->count && double(count) * kWarmRange >= double(source->count))
         warm.from = source.get();
+      else if (below && count > below->count && double(below->count) * kWarmRange >= double(count))
+        warm.from = below.get();
     }
     if (made) {
       ++taken;
@@ -1084,6 +1095,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     if (live.on_stage) live.on_stage(attempt.stages.back());
     const bool passes = similarity.ssim_mean >= min_ssim;
     if (passes && kept && (!source || count < source->count)) source = std::move(kept);
+    if (!passes && kept && (!below || count > below->count)) below = std::move(kept);
     const bool better = !best || (passes && (!best_passed || count < best->target)) ||
                         (!passes && !best_passed && count > best->target);
     if (better) {

@@ -617,7 +617,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       if (l != UINT32_MAX) start_cells = std::max(start_cells, l + 1);
     }
   }
-  const bool warm = start_cells >= count;
+  const bool warm = start_cells > 0;
   if (warm) {
     label = *options.start_label;
   } else {
@@ -1125,7 +1125,91 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     }
     energy.push_back(total_energy(clusters, constant));
   };
+  // Cell c (its elements el, in element order, at least two) cut in two
+  // along its farthest pair of elements: Dijkstra from both ends within the
+  // cell, the second end's side a new cell. Both sides are connected.
+  auto cut_in_two = [&](uint32_t c, const std::vector<uint32_t>& el) {
+    const Vec3d centroid = clusters[c].s * (1.0 / clusters[c].m);
+    auto farthest = [&](const Vec3d& from) {
+      uint32_t best = el[0];
+      double best_d = -1;
+      for (uint32_t v : el)
+        if (norm2(x[v] - from) > best_d) best_d = norm2(x[v] - from), best = v;
+      return best;
+    };
+    const uint32_t p = farthest(centroid), q = farthest(x[p]);
+    const uint32_t fresh = clusters_now++;
+    clusters.emplace_back();
+    loops_of_cluster.push_back(0);
+    std::unordered_map<uint32_t, double> dist;
+    std::unordered_map<uint32_t, uint32_t> side;
+    for (uint32_t v : el) dist[v] = INFINITY;
+    using Item = std::pair<double, uint32_t>;
+    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
+    dist[p] = dist[q] = 0;
+    side[p] = c;
+    side[q] = fresh;
+    queue.push({0.0, p});
+    queue.push({0.0, q});
+    while (!queue.empty()) {
+      const auto [d, v] = queue.top();
+      queue.pop();
+      if (d > dist[v]) continue;
+      for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
+        if (label[*w] != c) continue;
+        const double nd = d + norm(x[*w] - x[v]);
+        if (nd < dist[*w]) {
+          dist[*w] = nd;
+          side[*w] = side[v];
+          queue.push({nd, *w});
+        }
+      }
+    }
+    for (uint32_t v : el)
+      if (side.count(v) && side[v] == fresh) move(v, fresh);
+  };
+  // A warm start from fewer cells than count (a visual target's try above
+  // one that failed): in rounds, the cells holding the most of E (their
+  // inertia sum m |(x, a n) - centroid|^2, largest first, ties by id) are
+  // cut in two, as the topology step cuts a cell, until the count is
+  // reached; the sweeps then even the halves out. A cut lowers E most where
+  // a cell's inertia is largest (for a cell cut through its centroid along
+  // its long axis, by about half of it).
+  size_t warm_split = 0;
+  auto split_largest = [&](uint32_t missing) {
+    while (missing > 0) {
+      std::vector<double> moment(clusters_now, 0.0);  // sum m |(x, a n)|^2 per cell, in element order
+      in_vertex_ranges(
+          clusters_now,
+          [&](uint32_t lo, uint32_t hi) {
+            for (uint32_t v = 0; v < nv; ++v)
+              if (label[v] >= lo && label[v] < hi) moment[label[v]] += mass[v] * (dot(x[v], x[v]) + dot(y[v], y[v]));
+          },
+          256);
+      std::vector<std::pair<double, uint32_t>> order;  // (-inertia, cell): largest first
+      for (uint32_t c = 0; c < clusters_now; ++c)
+        if (clusters[c].size >= 2 && clusters[c].m > 0) order.push_back({-(moment[c] + clusters[c].energy()), c});
+      std::sort(order.begin(), order.end());
+      if (order.empty()) break;  // no cell can be cut: fewer cells than count remain
+      order.resize(std::min<size_t>(order.size(), missing));
+      std::vector<uint32_t> cut(order.size());
+      for (size_t i = 0; i < order.size(); ++i) cut[i] = order[i].second;
+      std::sort(cut.begin(), cut.end());
+      std::vector<uint32_t> slot(clusters_now, UINT32_MAX);
+      for (size_t i = 0; i < cut.size(); ++i) slot[cut[i]] = uint32_t(i);
+      std::vector<std::vector<uint32_t>> members(cut.size());
+      for (uint32_t v = 0; v < nv; ++v)
+        if (label[v] != UINT32_MAX && slot[label[v]] != UINT32_MAX) members[slot[label[v]]].push_back(v);
+      for (size_t i = 0; i < cut.size(); ++i) cut_in_two(cut[i], members[i]);
+      rebuild();
+      missing -= uint32_t(cut.size());
+      warm_split += cut.size();
+    }
+    guarded.resize(clusters_now, 0);
+    energy.push_back(total_energy(clusters, constant));
+  };
   if (warm && clusters_now > count) merge_cheapest(clusters_now - count);
+  if (warm && clusters_now < count) split_largest(count - clusters_now);
   VPR_RETURN_IF_ERROR(optimize());
 
   // The defective cells of the labels as they end, when the last round
@@ -1160,45 +1244,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       const uint32_t c = bad[i];
       const std::vector<uint32_t>& el = members[i];
       if (el.size() < 2) continue;
-      const Vec3d centroid = clusters[c].s * (1.0 / clusters[c].m);
-      auto farthest = [&](const Vec3d& from) {
-        uint32_t best = el[0];
-        double best_d = -1;
-        for (uint32_t v : el)
-          if (norm2(x[v] - from) > best_d) best_d = norm2(x[v] - from), best = v;
-        return best;
-      };
-      const uint32_t p = farthest(centroid), q = farthest(x[p]);
-      // Dijkstra from p and q within the cell: q's side becomes the new cell.
-      const uint32_t fresh = clusters_now++;
-      clusters.emplace_back();
-      loops_of_cluster.push_back(0);
-      std::unordered_map<uint32_t, double> dist;
-      std::unordered_map<uint32_t, uint32_t> side;
-      for (uint32_t v : el) dist[v] = INFINITY;
-      using Item = std::pair<double, uint32_t>;
-      std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
-      dist[p] = dist[q] = 0;
-      side[p] = c;
-      side[q] = fresh;
-      queue.push({0.0, p});
-      queue.push({0.0, q});
-      while (!queue.empty()) {
-        const auto [d, v] = queue.top();
-        queue.pop();
-        if (d > dist[v]) continue;
-        for (const uint32_t* w = adj.begin(v); w != adj.end(v); ++w) {
-          if (label[*w] != c) continue;
-          const double nd = d + norm(x[*w] - x[v]);
-          if (nd < dist[*w]) {
-            dist[*w] = nd;
-            side[*w] = side[v];
-            queue.push({nd, *w});
-          }
-        }
-      }
-      for (uint32_t v : el)
-        if (side.count(v) && side[v] == fresh) move(v, fresh);
+      cut_in_two(c, el);
     }
     splits += bad.size();
     // Where a cell had to be split the surface needs finer cells than the
@@ -1223,6 +1269,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     stats->cells_split = splits;
     stats->cells_merged = merged;
     stats->warm_merged = warm_merged;
+    stats->warm_split = warm_split;
     stats->device_sweeps = device_sweeps;
     stats->defective_cells = defective_at_end != SIZE_MAX ? defective_at_end
                                                           : defective_cells(mesh, adj, label, clusters_now).size();

@@ -78,11 +78,11 @@ struct CvtOptions {
   // the isotropic CVT.
   double anisotropy = 0;
   // A warm start instead of seeds: the labels of an earlier run on this
-  // surface with at least `count` cells (a visual target's try at a larger
-  // count: pipeline.cpp). Its surplus cells are merged away, the cheapest
-  // merges in E first, and the sweeps and the topology step go on from
-  // there: a few sweeps where a cold start takes a dozen. Fewer cells than
-  // count, or null: the seeds as usual.
+  // surface (a visual target's try at a nearby count: pipeline.cpp). With
+  // more cells than `count` the surplus is merged away, the cheapest merges
+  // in E first; with fewer, the cells holding the most of E are cut in two
+  // until the count is reached. The sweeps and the topology step go on from
+  // there: a few sweeps where a cold start takes a dozen. Null: the seeds.
   const std::vector<uint32_t>* start_label = nullptr;
   // Sweeps in colour rounds to run before each run of the sweeps (cvt_sweeps.h;
   // the pipeline passes the GPU twin), to a quarter of `tolerance` and with
@@ -111,6 +111,7 @@ struct CvtStats {
   size_t cells_merged = 0;        // cells merged away to make up for the splits
   size_t defective_cells = 0;     // cells whose dual vertex is still non-manifold
   size_t warm_merged = 0;         // a warm start's cells merged away to reach count
+  size_t warm_split = 0;          // a warm start's cells cut in two to reach count
   size_t device_sweeps = 0;       // of `sweeps`, those in colour rounds (CvtOptions::device_sweeps)
 };
 
