@@ -518,6 +518,52 @@ TEST(SurfaceCvtTest, WarmStartFromFewerCellsCutsTheLargestInTwo) {
       << up_stats.energy.back() / cold_stats.energy.back();
 }
 
+// The surface's normals and anisotropic offsets kept by one run
+// (CvtOptions::surface_cache) and read by the next, a warm start at a
+// nearby count as a visual target makes: the same labels as runs without
+// the cache, and the cache filled once, for the counts' shared (passes,
+// taper).
+TEST(SurfaceCvtTest, SurfaceCacheGivesTheSameCells) {
+  const Mesh sphere = testing::icosphere(4);
+  const MeshEdges edges = mesh_edges(sphere);
+  const std::vector<double> mass = vertex_areas(sphere);
+  CvtOptions plain;
+  plain.anisotropy = 0.04;
+  std::vector<uint32_t> first, second, first_cached, second_cached;
+  CvtStats stats;
+  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 320, plain, &first, &stats).ok());
+  CvtOptions from = plain;
+  from.start_label = &first;
+  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 300, from, &second, &stats).ok());
+
+  CvtSurfaceCache cache;
+  CvtOptions cached = plain;
+  cached.surface_cache = &cache;
+  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 320, cached, &first_cached, &stats).ok());
+  EXPECT_EQ(first_cached, first);
+  ASSERT_EQ(cache.normal.size(), sphere.vertex_count());
+  ASSERT_EQ(cache.offsets.size(), sphere.vertex_count());
+  const int passes = cache.passes, taper = cache.taper;
+  EXPECT_GT(passes, 0);
+  auto flat = [](const std::vector<Vec3d>& v) {
+    std::vector<double> out;
+    for (const Vec3d& p : v) out.insert(out.end(), {p.x, p.y, p.z});
+    return out;
+  };
+  const std::vector<double> kept_offsets = flat(cache.offsets);
+  cached.start_label = &first_cached;
+  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 300, cached, &second_cached, &stats).ok());
+  EXPECT_EQ(second_cached, second);
+  EXPECT_EQ(cache.passes, passes);
+  EXPECT_EQ(cache.taper, taper);
+  EXPECT_EQ(flat(cache.offsets), kept_offsets);
+  // Poisoned: a run that reads the cache instead of making them again shows it.
+  for (size_t v = 0; v < cache.offsets.size(); ++v) cache.offsets[v] = Vec3d{0.1 * double(v % 7), 0, 0};
+  std::vector<uint32_t> poisoned;
+  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 300, cached, &poisoned, &stats).ok());
+  EXPECT_NE(poisoned, second) << "the cached offsets were not read";
+}
+
 TEST(SurfaceCvtTest, SeedsStartSpreadEvenly) {
   // The seeds are stratified by mass along a space-filling curve (surface_cvt.cpp):
   // the cells grown from them start near the converged energy (here 1.21

@@ -572,6 +572,15 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
 struct SurfaceData {
   RefinedSurface refined;  // its values smoothed
   std::vector<double> area, mass;  // per surface element
+  // What the CVT and the dual make of the surface alone, kept for the warm
+  // tries that start from this surface (the same bits as making it again);
+  // null where no try will (a single target, a chain's levels).
+  struct Facts {
+    CvtSurfaceCache cvt;
+    std::mutex dual_mutex;
+    std::shared_ptr<const DualSurface> dual;
+  };
+  std::shared_ptr<Facts> facts;
 };
 
 // A try's surface and CVT cells, from which a later try at a smaller count
@@ -625,6 +634,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       note = "the surface and density of the try at " + std::to_string(warm.from->count) + " vertices (a warm start)";
     } else {
       made = std::make_shared<SurfaceData>();
+      if (warm.keep) made->facts = std::make_shared<SurfaceData::Facts>();
       data = made;
     }
     VPR_RETURN_IF_ERROR(stage.run(
@@ -708,8 +718,15 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       // beside 38 ms of sweeps). Made beside the CVT's own host steps they
       // only slow those down: on 2 cores horse's job took 4-10% longer.
       std::future<DualSurface> dual_beside;
-      auto make_dual_beside = [&dual_beside, &refined, per_cell = per_cell_sums(options.cluster_mesh.per_cell_sums)] {
-        if (!dual_beside.valid())
+      SurfaceData::Facts* facts = data->facts.get();
+      std::shared_ptr<const DualSurface> dual_kept;  // an earlier try's, on this surface
+      if (facts) {
+        std::lock_guard<std::mutex> lock(facts->dual_mutex);
+        dual_kept = facts->dual;
+      }
+      auto make_dual_beside = [&dual_beside, &dual_kept, &refined,
+                               per_cell = per_cell_sums(options.cluster_mesh.per_cell_sums)] {
+        if (!dual_beside.valid() && !dual_kept)
           dual_beside = std::async(std::launch::async,
                                    [&refined, per_cell] { return dual_surface(refined.mesh, refined.edges, per_cell); });
       };
@@ -719,6 +736,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       cvt.anisotropy = options.anisotropy;         // the input has a unit diagonal here
       cvt.joined_elements = refined.pinch_copies;  // parts split at a pinch share one equal share
       if (warm.from) cvt.start_label = &warm.from->label;
+      if (facts) cvt.surface_cache = &facts->cvt;
       // The sweeps in colour rounds (PipelineOptions::cvt_sweeps) on the
       // context's device: a GPU failure reruns the CVT on the CPU with the
       // rounds' CPU reference, the same labels.
@@ -780,10 +798,20 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             std::vector<uint32_t> cell;
             const uint32_t cells = result.cvt.clusters;
             ClusterMeshOptions mesh_options = options.cluster_mesh;
-            DualSurface facts;
-            if (dual_beside.valid()) {
-              facts = dual_beside.get();
-              mesh_options.surface_facts = &facts;
+            // The dual's facts of the surface: an earlier try's, made beside
+            // the GPU's sweeps, or made here and kept when later tries will
+            // start from this surface (else mesh_clusters makes them).
+            std::shared_ptr<const DualSurface> dual = dual_kept;
+            if (!dual && dual_beside.valid()) {
+              dual = std::make_shared<const DualSurface>(dual_beside.get());
+            } else if (!dual && facts) {
+              dual = std::make_shared<const DualSurface>(dual_surface(
+                  refined.mesh, refined.edges, per_cell_sums(options.cluster_mesh.per_cell_sums)));
+            }
+            if (dual) mesh_options.surface_facts = dual.get();
+            if (facts && !dual_kept) {
+              std::lock_guard<std::mutex> lock(facts->dual_mutex);
+              facts->dual = dual;
             }
 #ifdef VPR_HAVE_CUDA
             // The L2 fit's samples matched and summed on the GPU (the host's

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <future>
+#include <mutex>
 #include <numeric>
 #include <queue>
 #include <string>
@@ -313,9 +314,11 @@ constexpr double kMaxTaperSlope = 1.5;
 //   a cell across a crease pays for the jump in normal and the cells' walls
 //   would line up with the crease instead.
 // smooth: the passes' twin (CvtOptions::device_smoothing), or empty for the CPU's.
+// cache: offsets made before with the same passes, taper and anisotropy
+// (CvtOptions::surface_cache), or where to keep these; null: none.
 Status anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, const std::vector<Vec3d>& x,
                            const std::vector<Vec3d>& vertex_normal, uint32_t count, double anisotropy,
-                           const EdgeSmoothing& smooth, std::vector<Vec3d>* offsets) {
+                           const EdgeSmoothing& smooth, CvtSurfaceCache* cache, std::vector<Vec3d>* offsets) {
   const size_t nv = x.size();
   std::vector<Vec3d>& y = *offsets;
   y.assign(nv, Vec3d{0, 0, 0});
@@ -343,6 +346,11 @@ Status anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, const std::ve
   const double mean_edge = edge_count ? edge_sum / double(edge_count) : 0.0;
   const double slope_hops = mean_edge > 0 ? std::ceil(anisotropy / (kMaxTaperSlope * mean_edge)) : 1.0;
   const int taper = int(std::clamp(std::max(std::lround(2 * std::sqrt(per_cell)), long(std::min(slope_hops, 1e6))), 1L, 256L));
+  if (cache && cache->passes == passes && cache->taper == taper && cache->anisotropy == anisotropy &&
+      cache->offsets.size() == nv) {
+    y = cache->offsets;
+    return Status::Ok();
+  }
   // Jacobi passes (edge_smoothing.h): the same bits on any thread count and either twin.
   std::vector<Vec3d> now = vertex_normal;
   VPR_RETURN_IF_ERROR(smooth ? smooth(adj, passes, &now) : cpu::smooth_over_edges(adj, passes, &now));
@@ -392,6 +400,12 @@ Status anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, const std::ve
       if (len > 0) y[v] = now[v] * (anisotropy * double(hops[v].load(std::memory_order_relaxed)) / (double(taper) * len));
     }
   });
+  if (cache) {
+    cache->passes = passes;
+    cache->taper = taper;
+    cache->anisotropy = anisotropy;
+    cache->offsets = y;
+  }
   return Status::Ok();
 }
 
@@ -492,25 +506,37 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t v = r.begin(); v != r.end(); ++v) x[v] = load3d(mesh.positions.data(), v);
   });
-  std::vector<Vec3d> vertex_normal(nv, Vec3d{0, 0, 0});  // unit, area-weighted
-  in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {  // each vertex's faces in face order (core/vertex_ranges.h)
-    for (size_t f = 0; f < mesh.face_count(); ++f) {
-      const uint32_t* t = &mesh.indices[3 * f];
-      const bool mine[3] = {t[0] >= lo && t[0] < hi, t[1] >= lo && t[1] < hi, t[2] >= lo && t[2] < hi};
-      if (!mine[0] && !mine[1] && !mine[2]) continue;
-      const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
-      for (int k = 0; k < 3; ++k)
-        if (mine[k]) vertex_normal[t[k]] = vertex_normal[t[k]] + n;
-    }
-  });
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t v = r.begin(); v != r.end(); ++v)
-      if (norm(vertex_normal[v]) > 0) vertex_normal[v] = vertex_normal[v] * (1.0 / norm(vertex_normal[v]));
-  });
+  // A cache of an earlier run on this surface is held for this run's reads
+  // and fills (the normals and offsets).
+  std::unique_lock<std::mutex> cache_lock;
+  CvtSurfaceCache* cache = options.surface_cache;
+  if (cache) cache_lock = std::unique_lock<std::mutex>(cache->mutex);
+  std::vector<Vec3d> vertex_normal;  // unit, area-weighted
+  if (cache && cache->normal.size() == nv) {
+    vertex_normal = cache->normal;
+  } else {
+    vertex_normal.assign(nv, Vec3d{0, 0, 0});
+    in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {  // each vertex's faces in face order (core/vertex_ranges.h)
+      for (size_t f = 0; f < mesh.face_count(); ++f) {
+        const uint32_t* t = &mesh.indices[3 * f];
+        const bool mine[3] = {t[0] >= lo && t[0] < hi, t[1] >= lo && t[1] < hi, t[2] >= lo && t[2] < hi};
+        if (!mine[0] && !mine[1] && !mine[2]) continue;
+        const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
+        for (int k = 0; k < 3; ++k)
+          if (mine[k]) vertex_normal[t[k]] = vertex_normal[t[k]] + n;
+      }
+    });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v)
+        if (norm(vertex_normal[v]) > 0) vertex_normal[v] = vertex_normal[v] * (1.0 / norm(vertex_normal[v]));
+    });
+    if (cache) cache->normal = vertex_normal;
+  }
   // The normal half of each element's position in R^6 (zero: isotropic).
   std::vector<Vec3d> y;
-  VPR_RETURN_IF_ERROR(
-      anisotropic_offsets(mesh, adj, x, vertex_normal, count, options.anisotropy, options.device_smoothing, &y));
+  VPR_RETURN_IF_ERROR(anisotropic_offsets(mesh, adj, x, vertex_normal, count, options.anisotropy,
+                                          options.device_smoothing, cache, &y));
+  if (cache_lock) cache_lock.unlock();
 
   // Connected parts (elements with mass only; isolated vertices have none),
   // numbered by lowest element (edge_parts.h); each part's mass summed in

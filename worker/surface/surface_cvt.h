@@ -26,17 +26,34 @@
 #pragma once
 
 #include <cstdint>
+#include <mutex>
 #include <utility>
 #include <vector>
 
 #include "core/mesh.h"
 #include "core/status.h"
+#include "core/vec3.h"
 #include "surface/cell_growth.h"
 #include "surface/cvt_sweeps.h"
 #include "surface/edge_smoothing.h"
 #include "surface/mesh_edges.h"
 
 namespace vpr {
+
+// What surface_cvt makes of the surface alone, kept for later runs on the
+// same surface (a visual target's warm tries: pipeline.cpp): the elements'
+// unit normals, and the anisotropic offsets of the last (smoothing passes,
+// taper, anisotropy) asked, which depend on the count only through those
+// two whole numbers (a warm try 2-15% from its source's count mostly asks
+// the same). Filled by the first run, read by the next: the same bits as
+// making them again.
+struct CvtSurfaceCache {
+  std::mutex mutex;  // held by a run while it reads or fills the cache
+  std::vector<Vec3d> normal;
+  int passes = -1, taper = -1;
+  double anisotropy = -1;
+  std::vector<Vec3d> offsets;
+};
 
 struct CvtOptions {
   uint64_t seed = 1;
@@ -84,6 +101,9 @@ struct CvtOptions {
   // until the count is reached. The sweeps and the topology step go on from
   // there: a few sweeps where a cold start takes a dozen. Null: the seeds.
   const std::vector<uint32_t>* start_label = nullptr;
+  // The surface's normals and offsets from an earlier run on this surface,
+  // or filled for a later one (null: made and dropped).
+  CvtSurfaceCache* surface_cache = nullptr;
   // Sweeps in colour rounds to run before each run of the sweeps (cvt_sweeps.h;
   // the pipeline passes the GPU twin), to a quarter of `tolerance` and with
   // max_sweeps of their own: they make the bulk of the moves, and the sweeps
