@@ -1035,16 +1035,16 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   // on the tries before it, so none is made ahead (the tries ahead would
   // change which try starts from which). The elements per cell rise by the
   // range at most (16 per output vertex at the source's count).
-  // A try above the largest failing one, by at most kWarmRange, and with
-  // no passing try in range, starts from that failure's surface and cells
-  // in the same way, its largest cells cut in two (the elements per cell
-  // fall by the range at most: 14 per output vertex at the try's count).
-  // Before the first pass the search closes on the bound from below, so
-  // its last cold tries were each a whole back half there.
+  // Before the first pass, a try above the largest failing one, by at most
+  // kWarmRange, starts from that failure's surface and cells in the same
+  // way, its largest cells cut in two (the elements per cell fall by the
+  // range at most: 14 per output vertex at the try's count). The search
+  // closes on the bound from below there, and its last cold tries were
+  // each a whole back half.
   constexpr double kWarmRange = 1.15;
   const bool warm_on = options.visual_target_warm && options.density != DensityMode::kPaper && !ahead_on;
   std::shared_ptr<WarmStart> source;  // the smallest passing try's, when warm_on
-  std::shared_ptr<WarmStart> below;   // the largest failing try's, when warm_on
+  std::shared_ptr<WarmStart> below;   // the largest failing try's, when warm_on, until the first pass
   // Near the bound a failing score lies about this far below it (SSIM moves
   // by about 0.001 between counts 1% apart there).
   constexpr double kFailingMargin = 0.0005;
@@ -1122,8 +1122,10 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     attempt.stages.push_back({"visual_target", ms_since(start), "cpu", note, level});
     if (live.on_stage) live.on_stage(attempt.stages.back());
     const bool passes = similarity.ssim_mean >= min_ssim;
-    if (passes && kept && (!source || count < source->count)) source = std::move(kept);
-    if (!passes && kept && (!below || count > below->count)) below = std::move(kept);
+    // One source held at a time besides the running try (two surfaces at
+    // most): the failure's only until the first pass.
+    if (passes && kept && (!source || count < source->count)) source = std::move(kept), below.reset();
+    if (!passes && kept && !source && (!below || count > below->count)) below = std::move(kept);
     const bool better = !best || (passes && (!best_passed || count < best->target)) ||
                         (!passes && !best_passed && count > best->target);
     if (better) {
