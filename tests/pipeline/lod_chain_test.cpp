@@ -266,8 +266,8 @@ TEST(LodChain, VisualTargetTriesMadeAheadGiveTheSameOutcome) {
   EXPECT_GT(both.search.made_ahead, both.search.tries) << both_events.back();
 }
 
-// A visual target's tries below a passing one, or above a failing one
-// (within 15%), start from its surface and cells
+// A visual target's tries below a passing one (within 15%), or above a
+// failing one (within 10%), start from its surface and cells
 // (PipelineOptions::visual_target_warm): the CVT's note says from which try
 // and how many cells merged or were cut in two, the warm try runs fewer
 // sweeps than the cold try at the same count, the level keeps the bound,
