@@ -19,8 +19,8 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
       ->check(CLI::IsMember({"auto", "on", "both", "off"}))
       ->capture_default_str();
   cmd->add_flag("--cold-tries", values.cold_tries,
-                "A visual target's tries below a passing one start from scratch instead of from its surface and cells "
-                "(slower; for measuring)");
+                "A visual target's tries near an earlier one (below a pass, or above a failure before the first pass) "
+                "start from scratch instead of from its surface and cells (slower; for measuring)");
   cmd->add_flag("--levels-one-at-a-time", values.levels_one_at_a_time,
                 "Run a --lod chain's levels one after another instead of side by side (the same meshes; for "
                 "measuring)");

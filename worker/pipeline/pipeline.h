@@ -135,9 +135,11 @@ struct PipelineOptions {
   // (warm starts then off); 2 also the next try after a failure (measured on
   // the H100 machine: no faster than 1, more work; docs/benchmarks.md).
   int visual_target_ahead = -1;
-  // A visual target's tries below a passing one (within 15%) start from its
-  // surface and CVT cells instead of from scratch (run_visual_target): a few
-  // sweeps instead of a dozen. -1 above then makes no try ahead.
+  // A visual target's tries below a passing one (within 15%), or above a
+  // failing one before the first pass (within 10% of its surface's count),
+  // start from its surface and CVT cells instead of from scratch
+  // (run_visual_target): a few sweeps instead of a dozen. -1 above then
+  // makes no try ahead.
   bool visual_target_warm = true;
   CvtSweeps cvt_sweeps = CvtSweeps::kAuto;
   // On a GPU job the render's drawn geometry (smooth corner normals, shared
