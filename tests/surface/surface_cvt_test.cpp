@@ -412,23 +412,52 @@ TEST(SurfaceCvtTest, EnergyFallsEverySweepAndStopsOnItsTolerance) {
   EXPECT_NEAR(double(out.vertex_count()), 400.0, 8.0);  // +-2%
 }
 
+// A sphere's surface as the CVT takes it (2,562 elements), and a check
+// that a run gives `expected` on 1 and 3 threads too.
+struct CvtSurface {
+  Mesh mesh = testing::icosphere(4);
+  MeshEdges edges = mesh_edges(mesh);
+  std::vector<double> mass = vertex_areas(mesh);
+};
+
+void expect_same_on_threads(const CvtSurface& s, uint32_t count, const CvtOptions& options,
+                            const std::vector<uint32_t>& expected) {
+  for (int threads : {1, 3}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<uint32_t> again;
+    CvtStats again_stats;
+    ASSERT_TRUE(surface_cvt(s.mesh, s.edges, s.mass, count, options, &again, &again_stats).ok());
+    EXPECT_EQ(again, expected) << threads << " threads";
+  }
+}
+
+// Cold runs at `from` and at `to`, and a run at `to` started from the
+// first's cells (CvtOptions::start_label); c->options gives it again.
+struct WarmCase {
+  std::vector<uint32_t> source, cold, warm;
+  CvtStats cold_stats, warm_stats;
+  CvtOptions options;
+};
+
+void run_warm_case(const CvtSurface& s, uint32_t from, uint32_t to, WarmCase* c) {
+  CvtStats source_stats;
+  ASSERT_TRUE(surface_cvt(s.mesh, s.edges, s.mass, from, CvtOptions{}, &c->source, &source_stats).ok());
+  ASSERT_TRUE(surface_cvt(s.mesh, s.edges, s.mass, to, CvtOptions{}, &c->cold, &c->cold_stats).ok());
+  c->options.start_label = &c->source;
+  ASSERT_TRUE(surface_cvt(s.mesh, s.edges, s.mass, to, c->options, &c->warm, &c->warm_stats).ok());
+}
+
 // A warm start (CvtOptions::start_label, a visual target's try below a
 // passing one): the cells of a run at 10% more are merged down to the count
 // and the sweeps go on. It must reach the count exactly, end at about the
 // energy a cold start reaches (lower or within 2%), in fewer sweeps, with
 // the same labels on any thread count.
 TEST(SurfaceCvtTest, WarmStartFromMoreCellsMergesDownToTheCount) {
-  const Mesh sphere = testing::icosphere(4);  // 2,562 vertices
-  const MeshEdges edges = mesh_edges(sphere);
-  const std::vector<double> mass = vertex_areas(sphere);
-  CvtOptions options;
-  std::vector<uint32_t> more, cold, warm;
-  CvtStats more_stats, cold_stats, warm_stats;
-  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 330, options, &more, &more_stats).ok());
-  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 300, options, &cold, &cold_stats).ok());
-  CvtOptions from = options;
-  from.start_label = &more;
-  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 300, from, &warm, &warm_stats).ok());
+  const CvtSurface surface;
+  WarmCase c;
+  run_warm_case(surface, 330, 300, &c);
+  const std::vector<uint32_t>& warm = c.warm;
+  const CvtStats &cold_stats = c.cold_stats, &warm_stats = c.warm_stats;
   EXPECT_EQ(warm_stats.clusters, 300u);
   EXPECT_EQ(warm_stats.warm_merged, 30u);
   EXPECT_EQ(*std::max_element(warm.begin(), warm.end()), 299u);
@@ -436,20 +465,14 @@ TEST(SurfaceCvtTest, WarmStartFromMoreCellsMergesDownToTheCount) {
   EXPECT_LT(warm_stats.sweeps, cold_stats.sweeps);
   EXPECT_LT(warm_stats.energy.back(), 1.02 * cold_stats.energy.back())
       << warm_stats.energy.back() / cold_stats.energy.back();
-  for (int threads : {1, 3}) {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-    std::vector<uint32_t> again;
-    CvtStats again_stats;
-    ASSERT_TRUE(surface_cvt(sphere, edges, mass, 300, from, &again, &again_stats).ok());
-    EXPECT_EQ(again, warm) << threads << " threads";
-  }
+  expect_same_on_threads(surface, 300, c.options, warm);
   // Labels of another surface are refused.
-  std::vector<uint32_t> wrong(more.begin(), more.end() - 1);
-  CvtOptions bad = options;
+  std::vector<uint32_t> wrong(c.source.begin(), c.source.end() - 1);
+  CvtOptions bad;
   bad.start_label = &wrong;
   std::vector<uint32_t> out;
   CvtStats out_stats;
-  EXPECT_FALSE(surface_cvt(sphere, edges, mass, 300, bad, &out, &out_stats).ok());
+  EXPECT_FALSE(surface_cvt(surface.mesh, surface.edges, surface.mass, 300, bad, &out, &out_stats).ok());
 }
 
 // The other way (a visual target's try above one that failed): the cells of
@@ -458,17 +481,11 @@ TEST(SurfaceCvtTest, WarmStartFromMoreCellsMergesDownToTheCount) {
 // cold start reaches (within 2%), in fewer sweeps, the same labels on any
 // thread count; and from far fewer cells (a third), in rounds.
 TEST(SurfaceCvtTest, WarmStartFromFewerCellsCutsTheLargestInTwo) {
-  const Mesh sphere = testing::icosphere(4);  // 2,562 vertices
-  const MeshEdges edges = mesh_edges(sphere);
-  const std::vector<double> mass = vertex_areas(sphere);
-  CvtOptions options;
-  std::vector<uint32_t> fewer, cold, warm;
-  CvtStats fewer_stats, cold_stats, warm_stats;
-  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 300, options, &fewer, &fewer_stats).ok());
-  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 330, options, &cold, &cold_stats).ok());
-  CvtOptions from = options;
-  from.start_label = &fewer;
-  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 330, from, &warm, &warm_stats).ok());
+  const CvtSurface surface;
+  WarmCase c;
+  run_warm_case(surface, 300, 330, &c);
+  const std::vector<uint32_t>& warm = c.warm;
+  const CvtStats &cold_stats = c.cold_stats, &warm_stats = c.warm_stats;
   EXPECT_EQ(warm_stats.clusters, 330u);
   EXPECT_EQ(warm_stats.warm_split, 30u);
   EXPECT_EQ(warm_stats.warm_merged, 0u);
@@ -486,36 +503,25 @@ TEST(SurfaceCvtTest, WarmStartFromFewerCellsCutsTheLargestInTwo) {
       const uint32_t u = stack.back();
       stack.pop_back();
       ++reached[warm[u]];
-      for (const uint32_t* w = edges.begin(u); w != edges.end(u); ++w)
+      for (const uint32_t* w = surface.edges.begin(u); w != surface.edges.end(u); ++w)
         if (!seen[*w] && warm[*w] == warm[u]) seen[*w] = 1, stack.push_back(*w);
     }
   }
-  for (uint32_t c = 0; c < 330; ++c) {
-    EXPECT_GT(size[c], 0u) << c;
-    EXPECT_EQ(reached[c], size[c]) << "cell " << c << " is in pieces";
+  for (uint32_t cell = 0; cell < 330; ++cell) {
+    EXPECT_GT(size[cell], 0u) << cell;
+    EXPECT_EQ(reached[cell], size[cell]) << "cell " << cell << " is in pieces";
   }
   EXPECT_LT(warm_stats.sweeps, cold_stats.sweeps);
   EXPECT_LT(warm_stats.energy.back(), 1.02 * cold_stats.energy.back())
       << warm_stats.energy.back() / cold_stats.energy.back();
-  for (int threads : {1, 3}) {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-    std::vector<uint32_t> again;
-    CvtStats again_stats;
-    ASSERT_TRUE(surface_cvt(sphere, edges, mass, 330, from, &again, &again_stats).ok());
-    EXPECT_EQ(again, warm) << threads << " threads";
-  }
-  std::vector<uint32_t> third;
-  CvtStats third_stats;
-  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 100, options, &third, &third_stats).ok());
-  from.start_label = &third;
-  std::vector<uint32_t> up;
-  CvtStats up_stats;
-  ASSERT_TRUE(surface_cvt(sphere, edges, mass, 330, from, &up, &up_stats).ok());
-  EXPECT_EQ(up_stats.clusters, 330u);
-  EXPECT_EQ(up_stats.warm_split, 230u);
-  EXPECT_EQ(std::set<uint32_t>(up.begin(), up.end()).size(), 330u);
-  EXPECT_LT(up_stats.energy.back(), 1.02 * cold_stats.energy.back())
-      << up_stats.energy.back() / cold_stats.energy.back();
+  expect_same_on_threads(surface, 330, c.options, warm);
+  WarmCase third;
+  run_warm_case(surface, 100, 330, &third);
+  EXPECT_EQ(third.warm_stats.clusters, 330u);
+  EXPECT_EQ(third.warm_stats.warm_split, 230u);
+  EXPECT_EQ(std::set<uint32_t>(third.warm.begin(), third.warm.end()).size(), 330u);
+  EXPECT_LT(third.warm_stats.energy.back(), 1.02 * cold_stats.energy.back())
+      << third.warm_stats.energy.back() / cold_stats.energy.back();
 }
 
 // The surface's normals and anisotropic offsets kept by one run
@@ -524,9 +530,10 @@ TEST(SurfaceCvtTest, WarmStartFromFewerCellsCutsTheLargestInTwo) {
 // the cache, and the cache filled once, for the counts' shared (passes,
 // taper).
 TEST(SurfaceCvtTest, SurfaceCacheGivesTheSameCells) {
-  const Mesh sphere = testing::icosphere(4);
-  const MeshEdges edges = mesh_edges(sphere);
-  const std::vector<double> mass = vertex_areas(sphere);
+  const CvtSurface surface;
+  const Mesh& sphere = surface.mesh;
+  const MeshEdges& edges = surface.edges;
+  const std::vector<double>& mass = surface.mass;
   CvtOptions plain;
   plain.anisotropy = 0.04;
   std::vector<uint32_t> first, second, first_cached, second_cached;
