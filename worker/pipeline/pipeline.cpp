@@ -725,11 +725,11 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
         std::lock_guard<std::mutex> lock(facts->dual_mutex);
         dual_kept = facts->dual;
       }
-      auto make_dual_beside = [&dual_beside, &dual_kept, &refined,
-                               per_cell = per_cell_sums(options.cluster_mesh.per_cell_sums)] {
-        if (!dual_beside.valid() && !dual_kept)
-          dual_beside = std::async(std::launch::async,
-                                   [&refined, per_cell] { return dual_surface(refined.mesh, refined.edges, per_cell); });
+      auto make_dual = [&refined, per_cell = per_cell_sums(options.cluster_mesh.per_cell_sums)] {
+        return dual_surface(refined.mesh, refined.edges, per_cell);
+      };
+      auto make_dual_beside = [&dual_beside, &dual_kept, &make_dual] {
+        if (!dual_beside.valid() && !dual_kept) dual_beside = std::async(std::launch::async, make_dual);
       };
       std::vector<uint32_t> label;
       CvtOptions cvt = options.cvt;
@@ -806,8 +806,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             if (!dual && dual_beside.valid()) {
               dual = std::make_shared<const DualSurface>(dual_beside.get());
             } else if (!dual && facts) {
-              dual = std::make_shared<const DualSurface>(dual_surface(
-                  refined.mesh, refined.edges, per_cell_sums(options.cluster_mesh.per_cell_sums)));
+              dual = std::make_shared<const DualSurface>(make_dual());
             }
             if (dual) mesh_options.surface_facts = dual.get();
             if (facts && !dual_kept) {

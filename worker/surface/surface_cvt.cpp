@@ -1151,6 +1151,15 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     }
     energy.push_back(total_energy(clusters, constant));
   };
+  // The elements of each of `cells` (distinct), in element order.
+  auto elements_of = [&](const std::vector<uint32_t>& cells) {
+    std::vector<std::vector<uint32_t>> out(cells.size());
+    std::vector<uint32_t> slot(clusters_now, UINT32_MAX);
+    for (size_t i = 0; i < cells.size(); ++i) slot[cells[i]] = uint32_t(i);
+    for (uint32_t v = 0; v < nv; ++v)
+      if (label[v] != UINT32_MAX && slot[label[v]] != UINT32_MAX) out[slot[label[v]]].push_back(v);
+    return out;
+  };
   // Cell c (its elements el, in element order, at least two) cut in two
   // along its farthest pair of elements: Dijkstra from both ends within the
   // cell, the second end's side a new cell. Both sides are connected.
@@ -1221,11 +1230,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       std::vector<uint32_t> cut(order.size());
       for (size_t i = 0; i < order.size(); ++i) cut[i] = order[i].second;
       std::sort(cut.begin(), cut.end());
-      std::vector<uint32_t> slot(clusters_now, UINT32_MAX);
-      for (size_t i = 0; i < cut.size(); ++i) slot[cut[i]] = uint32_t(i);
-      std::vector<std::vector<uint32_t>> members(cut.size());
-      for (uint32_t v = 0; v < nv; ++v)
-        if (label[v] != UINT32_MAX && slot[label[v]] != UINT32_MAX) members[slot[label[v]]].push_back(v);
+      const std::vector<std::vector<uint32_t>> members = elements_of(cut);
       for (size_t i = 0; i < cut.size(); ++i) cut_in_two(cut[i], members[i]);
       rebuild();
       missing -= uint32_t(cut.size());
@@ -1261,11 +1266,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       bad.resize(split_budget - splits);
       std::sort(bad.begin(), bad.end());
     }
-    std::vector<std::vector<uint32_t>> members(bad.size());
-    std::vector<uint32_t> slot(clusters_now, UINT32_MAX);
-    for (size_t i = 0; i < bad.size(); ++i) slot[bad[i]] = uint32_t(i);
-    for (uint32_t v = 0; v < nv; ++v)
-      if (label[v] != UINT32_MAX && slot[label[v]] != UINT32_MAX) members[slot[label[v]]].push_back(v);
+    const std::vector<std::vector<uint32_t>> members = elements_of(bad);
     for (size_t i = 0; i < bad.size(); ++i) {
       const uint32_t c = bad[i];
       const std::vector<uint32_t>& el = members[i];
