@@ -335,6 +335,91 @@ TEST(LodChain, VisualTargetTriesNearAnEarlierTryStartWarm) {
   }
 }
 
+// A cut start that fails near the bound is run again from scratch at the
+// same count (PipelineOptions::visual_target_confirm), and the search takes
+// that try's score, which is a cold job's at that count; with no margin
+// nothing runs again, and every try is counted either way.
+TEST(LodChain, AFailingCutStartNearTheBoundIsConfirmedFromScratch) {
+  const Mesh mesh = bumpy_sphere();
+  LevelTarget visual;
+  visual.min_ssim = 0.97;
+  struct Judged {
+    uint32_t count = 0;
+    double ssim = 0;
+    bool cut = false, again = false;
+  };
+  auto options = [](uint32_t seed) {
+    PipelineOptions o = small_views();
+    o.sampling.seed = seed;
+    return o;
+  };
+  auto run = [&](double confirm, uint32_t seed, std::vector<Judged>* tries) {
+    PipelineOptions o = options(seed);
+    o.visual_target_ahead = 0;
+    o.visual_target_confirm = confirm;
+    o.on_stage = [tries](const StageTiming& t) {
+      Judged j;
+      unsigned n = 0;
+      if (t.name != "visual_target" || std::sscanf(t.note.c_str(), "%u vertices: SSIM %lf", &n, &j.ssim) != 2) return;
+      j.count = n;
+      j.cut = t.note.find("(a cut start)") != std::string::npos;
+      j.again = t.note.find("again, from scratch") != std::string::npos;
+      tries->push_back(j);
+    };
+    const std::vector<PipelineResult> found = run_levels(mesh, o, {visual});
+    EXPECT_EQ(found.size(), 1u);
+    return found.empty() ? PipelineResult() : found[0];
+  };
+  auto failing_cut = [&](const Judged& j) { return j.cut && j.ssim < visual.min_ssim; };
+  // A margin of 1: every failing cut start runs again. Not every search
+  // has one (on this sphere the first is seed 4's, of seeds 1-7).
+  std::vector<Judged> all;
+  PipelineResult confirmed;
+  uint32_t seed = 1;
+  for (; seed <= 7; ++seed) {
+    all.clear();
+    confirmed = run(1.0, seed, &all);
+    if (std::any_of(all.begin(), all.end(), failing_cut)) break;
+  }
+  ASSERT_LE(seed, 7u) << "no cut start failed on this sphere";
+  ASSERT_EQ(size_t(confirmed.search.tries), all.size());
+  auto renderer = create_renderer(RendererKind::kAuto);
+  ASSERT_TRUE(renderer.ok());
+  VisualSimilarityOptions judge;
+  judge.views = small_views().views.count;
+  judge.resolution = small_views().views.resolution;
+  auto reference = VisualReference::create(mesh, renderer->get(), judge);
+  ASSERT_TRUE(reference.ok()) << reference.status().to_string();
+  int failing_cuts = 0;
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (!failing_cut(all[i])) {
+      EXPECT_FALSE(all[i].again && !(i > 0 && failing_cut(all[i - 1])))
+          << "the try at " << all[i].count << " ran again after no failing cut start";
+      continue;
+    }
+    ++failing_cuts;
+    ASSERT_LT(i + 1, all.size()) << "the last try was a failing cut start";
+    EXPECT_TRUE(all[i + 1].again) << "the failing cut start at " << all[i].count << " did not run again";
+    EXPECT_EQ(all[i + 1].count, all[i].count);
+    // The count again from scratch is a cold job at that count (the note
+    // gives four decimals).
+    const std::vector<PipelineResult> cold = run_levels(mesh, options(seed), {count(all[i].count)});
+    ASSERT_EQ(cold.size(), 1u);
+    auto score = reference->compare(cold[0].mesh);
+    ASSERT_TRUE(score.ok());
+    EXPECT_NEAR(all[i + 1].ssim, score->ssim_mean, 0.00005) << all[i].count;
+  }
+  EXPECT_EQ(confirmed.search.confirmed, failing_cuts);
+  ASSERT_GE(confirmed.search.ssim, visual.min_ssim);
+  // No margin: nothing runs again.
+  std::vector<Judged> none;
+  const PipelineResult trusted = run(0, seed, &none);
+  EXPECT_EQ(trusted.search.confirmed, 0);
+  EXPECT_EQ(size_t(trusted.search.tries), none.size());
+  EXPECT_TRUE(std::any_of(none.begin(), none.end(), failing_cut)) << "the same search's cut start, trusted";
+  for (const Judged& j : none) EXPECT_FALSE(j.again) << j.count;
+}
+
 // Levels side by side (the default for count levels) give the bits one at a
 // time gives, are delivered in order, and the callbacks never overlap (each
 // sleeps a little, so an overlap would be caught); a level callback's error

@@ -1070,7 +1070,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
         if (a->done.valid()) a->done.wait();
     }
   } drain{ahead, stopped};
-  int made_ahead = 0, taken = 0;
+  int made_ahead = 0, taken = 0, confirmed = 0;
   auto make_ahead = [&](uint32_t count) {
     auto made = std::make_unique<AheadTry>();
     AheadTry* a = made.get();
@@ -1121,13 +1121,30 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     } else {
       VPR_RETURN_IF_ERROR(back_half_at(front, live, level, count, &attempt, warm));
     }
-    const auto start = Clock::now();
-    VPR_ASSIGN_OR_RETURN(const VisualSimilarity similarity, reference.compare(attempt.mesh));
-    char note[96];
-    std::snprintf(note, sizeof note, "%u vertices: SSIM %.4f (bound %.4f)", count, similarity.ssim_mean, min_ssim);
-    attempt.stages.push_back({"visual_target", ms_since(start), "cpu", note, level});
-    if (live.on_stage) live.on_stage(attempt.stages.back());
-    const bool passes = similarity.ssim_mean >= min_ssim;
+    auto judge_try = [&](PipelineResult* a, const char* how) -> StatusOr<double> {
+      const auto start = Clock::now();
+      VPR_ASSIGN_OR_RETURN(const VisualSimilarity similarity, reference.compare(a->mesh));
+      char note[128];
+      std::snprintf(note, sizeof note, "%u vertices: SSIM %.4f (bound %.4f)%s", count, similarity.ssim_mean, min_ssim,
+                    how);
+      a->stages.push_back({"visual_target", ms_since(start), "cpu", note, level});
+      if (live.on_stage) live.on_stage(a->stages.back());
+      return similarity.ssim_mean;
+    };
+    const bool cut_start = warm.from && warm.from == below.get();
+    VPR_ASSIGN_OR_RETURN(double ssim, judge_try(&attempt, cut_start ? " (a cut start)" : ""));
+    // A cut start that fails near the bound is confirmed from scratch
+    // (PipelineOptions::visual_target_confirm): its failure would raise the
+    // bracket's low end, and every later try lies above it.
+    if (cut_start && ssim < min_ssim && ssim >= min_ssim - options.visual_target_confirm) {
+      BackHalfWarm cold;
+      cold.keep = &kept;
+      attempt = PipelineResult();
+      VPR_RETURN_IF_ERROR(back_half_at(front, live, level, count, &attempt, cold));
+      VPR_ASSIGN_OR_RETURN(ssim, judge_try(&attempt, " (the cut start's count again, from scratch)"));
+      ++confirmed;
+    }
+    const bool passes = ssim >= min_ssim;
     // One source held at a time besides the running try (two surfaces at
     // most): the failure's only until the first pass.
     if (passes && kept && (!source || count < source->count)) source = std::move(kept), below.reset();
@@ -1135,11 +1152,11 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     const bool better = !best || (passes && (!best_passed || count < best->target)) ||
                         (!passes && !best_passed && count > best->target);
     if (better) {
-      attempt.search.ssim = similarity.ssim_mean;
+      attempt.search.ssim = ssim;
       best = std::move(attempt);
       best_passed = passes;
     }
-    search.record(count, similarity.ssim_mean);
+    search.record(count, ssim);
     for (auto it = ahead.begin(); it != ahead.end();) {  // not the search's next: stopped
       if (it->first == search.next()) {
         ++it;
@@ -1153,12 +1170,16 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
   const VisualTargetOutcome outcome = search.outcome();
   PipelineResult result = std::move(*best);
   result.search.min_ssim = min_ssim;
-  result.search.tries = int(outcome.tries.size());
+  result.search.tries = int(outcome.tries.size()) + confirmed;
+  result.search.confirmed = confirmed;
   result.search.made_ahead = made_ahead;
   result.search.taken = taken;
   char note[200];
   std::snprintf(note, sizeof note, "%u vertices chosen after %zu tries: SSIM %.4f %s %.4f", result.target,
-                outcome.tries.size(), result.search.ssim, outcome.reached ? ">=" : "< (not reached)", min_ssim);
+                size_t(result.search.tries), result.search.ssim, outcome.reached ? ">=" : "< (not reached)", min_ssim);
+  if (confirmed > 0)
+    std::snprintf(note + std::strlen(note), sizeof note - std::strlen(note), "; %d cut start%s confirmed from scratch",
+                  confirmed, confirmed > 1 ? "s" : "");
   if (made_ahead > 0)
     std::snprintf(note + std::strlen(note), sizeof note - std::strlen(note), "; %d of them made ahead (of %d)", taken,
                   made_ahead);

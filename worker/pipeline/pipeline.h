@@ -141,6 +141,13 @@ struct PipelineOptions {
   // (run_visual_target): a few sweeps instead of a dozen. -1 above then
   // makes no try ahead.
   bool visual_target_warm = true;
+  // A try started from a failing one's cells (a cut start) that fails by
+  // less than this is run again from scratch at the same count, and the
+  // search takes that score: a cut start's score differs from a cold one's
+  // by up to about 0.0013 either way (docs/benchmarks.md), so such a failure
+  // says nothing, and taken as one it raises the bracket's low end past
+  // counts that pass. 0 never confirms.
+  double visual_target_confirm = 0.002;
   CvtSweeps cvt_sweeps = CvtSweeps::kAuto;
   // On a GPU job the render's drawn geometry (smooth corner normals, shared
   // corners) is built on the device (render/drawn_geometry.h); false builds
@@ -180,6 +187,7 @@ struct LevelSearch {
   int tries = 0;        // back halves run to find it
   int made_ahead = 0;   // tries made ahead beside the search's (PipelineOptions::visual_target_ahead)
   int taken = 0;        // of those, the ones the search then asked for
+  int confirmed = 0;    // cut starts run again from scratch (PipelineOptions::visual_target_confirm), in tries
 };
 
 struct PipelineResult {
