@@ -141,6 +141,36 @@ TEST(VisualTarget, ConvergesOnAScoreTheModelDoesNotFit) {
   EXPECT_LE(double(found->count), 1.02 * 7777);
 }
 
+// A cliff in the score, with passes well above the bound (a part appears at
+// some count: a fin on a box scored 0.93 up to 169 vertices and 1.0 from 175;
+// a low-poly table 0.958 at 1,465 and 0.978-0.981 from 1,497 up): within the
+// default tries the search closes the bracket within the tolerance, where
+// walking down from the pass by the tolerance ran out of tries.
+TEST(VisualTarget, ClosesOnACliffWithPassesWellAboveTheBound) {
+  struct Cliff {
+    uint32_t at, highest;
+    double below, above;
+  };
+  for (const Cliff c : {Cliff{172, 5000, 0.93, 1.0}, Cliff{1480, 20000, 0.958, 0.98}, Cliff{7777, 50000, 0.5, 0.99},
+                        Cliff{640, 3000, 0.9, 0.999}}) {
+    VisualTargetOptions o;
+    o.min_ssim = 0.97;
+    o.highest = c.highest;
+    auto found = search_visual_target(o, [&](uint32_t n) -> StatusOr<double> {
+      // A little noise on each side, as measured scores have.
+      const double wobble = 0.001 * double((n * 2654435761u) >> 30) / 3.0;
+      return (n >= c.at ? c.above : c.below) - wobble;
+    });
+    ASSERT_TRUE(found.ok());
+    std::string tries;
+    for (const VisualTry& t : found->tries) tries += " " + std::to_string(t.count);
+    EXPECT_TRUE(found->reached) << c.at << ":" << tries;
+    EXPECT_GE(found->count, c.at) << tries;
+    EXPECT_LE(double(found->count), 1.02 * c.at) << c.at << ":" << tries;
+    EXPECT_LE(found->tries.size(), 10u) << c.at << ":" << tries;
+  }
+}
+
 TEST(VisualTarget, SaysWhenTheBoundIsOutOfReachAndPassesErrorsOn) {
   VisualTargetOptions o;
   o.min_ssim = 0.99;

@@ -10,9 +10,11 @@
 // through a try far below the bound steps as 1/n would at most, and from a
 // failure near the bound the step may be as short as the tolerance, doubling
 // after each such step that fails (near the bound the score is noisy: SSIM
-// moves by about 0.001 between counts 1% apart). Once a count passes, the
-// next try is the largest that would close the bracket within the tolerance
-// (2%) if it fails. Tries stay strictly inside the bracket; it bisects when
+// moves by about 0.001 between counts 1% apart). Once a count passes near
+// the bound, the next try is the largest that would close the bracket within
+// the tolerance (2%) if it fails; from a pass well above the bound (a cliff
+// in the score, where a part appears) that the model cannot place, the
+// bracket's middle. Tries stay strictly inside the bracket; it bisects when
 // the bracket has not halved in two tries. vpremesh-visual-replay replays the
 // search on measured curves (client/bench/visual_search_replay.cpp).
 #pragma once
