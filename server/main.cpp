@@ -11,6 +11,7 @@
 #include <signal.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+#include <tbb/task_arena.h>
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -68,9 +69,13 @@ int run(const ServerOptions& o) {
                               : o.device == "cuda" ? DevicePolicy::kCuda
                                                    : DevicePolicy::kAuto;
   // On the CPU one worker is enough: each stage already uses every core
-  // (TBB). With a Redis queue vpremesh-worker processes run the jobs.
+  // (TBB); a GPU runs several jobs at once (default_workers). With a Redis
+  // queue vpremesh-worker processes run the jobs.
   const bool redis = uses_redis(o);
-  const int workers = o.workers >= 0 ? o.workers : redis ? 0 : std::max(gpus, 1);
+  const int workers = o.workers >= 0 ? o.workers
+                      : redis        ? 0
+                                     : default_workers(policy == DevicePolicy::kCpu ? 0 : gpus,
+                                                       tbb::this_task_arena::max_concurrency());
   auto renderer = parse_renderer_kind(o.renderer);
   if (!renderer.ok()) return fail(renderer.status().message(), 2);
 

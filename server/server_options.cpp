@@ -46,6 +46,11 @@ size_t usable_memory() {
 
 }  // namespace
 
+int default_workers(int gpus, int cores) {
+  if (gpus <= 0) return 1;
+  return gpus * std::clamp(cores / 4, 1, 4);
+}
+
 JobProcessOptions job_process_options(const JobIsolationOptions& o, int workers) {
   JobProcessOptions p;
   if (o.mode == "process") p.exe = "/proc/self/exe";  // this very binary, even if replaced on disk since
@@ -62,9 +67,9 @@ void add_server_options(CLI::App& app, ServerOptions* o) {
                  "shared by server replicas and vpremesh-worker processes)")
       ->capture_default_str();
   app.add_option("--workers", o->workers,
-                 "Worker threads running the pipeline in this process; default: one per GPU, or 1 on CPU (the "
-                 "pipeline itself uses every core through TBB); 0 with --queue redis://, where vpremesh-worker "
-                 "runs the jobs")
+                 "Worker threads running the pipeline in this process; default: per GPU a quarter of the cores, "
+                 "1 to 4 (a GPU job keeps about 4 cores busy), or 1 on CPU (the pipeline itself uses every core "
+                 "through TBB); 0 with --queue redis://, where vpremesh-worker runs the jobs")
       ->check(CLI::Range(0, 256));
   app.add_option("--upload-ttl", o->upload_ttl_s,
                  "With --queue redis://: seconds an upload waits in Redis for a worker before the job fails")

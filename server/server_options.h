@@ -19,6 +19,15 @@ struct JobIsolationOptions {
 
 void add_isolation_options(CLI::App& app, JobIsolationOptions* options);
 
+// Workers (jobs at once) on `gpus` GPUs and `cores` cores when --workers or
+// --concurrency is not given: on the CPU (gpus 0) one, whose stages use every
+// core; else per GPU a quarter of the cores, between 1 and 4. A GPU job's
+// host steps keep about 4 cores busy (0.7 processor seconds in a horse job of
+// 0.17 s on 16 cores), so one job at a time leaves most of a GPU host idle:
+// on an H200 with 16 cores, 4 at once gave 2.2-2.5 times the jobs per second
+// of one at a time, and a lone job ran as fast (docs/scaling.md).
+int default_workers(int gpus, int cores);
+
 // The WorkerPool settings for `workers` workers on this machine: the binary
 // to start job processes from (this one) and their limits; exe empty with
 // --isolation thread.
@@ -27,7 +36,7 @@ JobProcessOptions job_process_options(const JobIsolationOptions& options, int wo
 struct ServerOptions {
   std::string listen = "0.0.0.0:50051";  // --listen; PORT 0 picks a free port (printed at startup)
   std::string queue = "embedded";        // --queue embedded | redis://[:PASSWORD@]HOST:PORT[/DB]
-  int workers = -1;                      // --workers; -1: one per GPU, or 1 on CPU; 0 with a Redis queue
+  int workers = -1;                      // --workers; -1: default_workers, or 0 with a Redis queue
   double upload_ttl_s = 86400;           // --upload-ttl: Redis queue only, how long an upload waits
   std::string device = "auto";           // --device auto|cpu|cuda
   std::string renderer = "auto";         // --renderer auto|egl|osmesa

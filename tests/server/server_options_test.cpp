@@ -62,6 +62,21 @@ TEST(ServerOptions, DefaultsKeepTheLibraryLimits) {
   EXPECT_FALSE(uses_redis(o));
 }
 
+// Without --workers: one on the CPU; per GPU a quarter of the cores, 1 to 4
+// (a GPU job's host steps keep about 4 cores busy); -1 still means "not given".
+TEST(ServerOptions, DefaultWorkersAreAQuarterOfTheCoresPerGpuAtMostFour) {
+  EXPECT_EQ(parse({}).workers, -1);
+  EXPECT_EQ(default_workers(0, 2), 1);
+  EXPECT_EQ(default_workers(0, 64), 1);  // CPU only: every stage already uses every core
+  EXPECT_EQ(default_workers(1, 2), 1);
+  EXPECT_EQ(default_workers(1, 7), 1);
+  EXPECT_EQ(default_workers(1, 8), 2);
+  EXPECT_EQ(default_workers(1, 16), 4);
+  EXPECT_EQ(default_workers(1, 128), 4);
+  EXPECT_EQ(default_workers(2, 16), 8);
+  EXPECT_EQ(default_workers(8, 128), 32);
+}
+
 TEST(ServerOptions, QueueIsEmbeddedOrARedisUrl) {
   ServerOptions o = parse({"--listen", "127.0.0.1:0", "--queue", "redis://cache:6380/1", "--upload-ttl", "60"});
   EXPECT_TRUE(uses_redis(o));

@@ -10,6 +10,7 @@
 #include <signal.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+#include <tbb/task_arena.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -55,7 +56,8 @@ int run(const WorkerOptions& o) {
                               : o.device == "cuda" ? DevicePolicy::kCuda
                                                    : DevicePolicy::kAuto;
   const int used_gpus = policy == DevicePolicy::kCpu ? 0 : gpu_ids.empty() ? gpus : int(gpu_ids.size());
-  const int workers = o.concurrency > 0 ? o.concurrency : std::max(used_gpus, 1);
+  const int workers =
+      o.concurrency > 0 ? o.concurrency : default_workers(used_gpus, tbb::this_task_arena::max_concurrency());
   auto renderer = parse_renderer_kind(o.renderer);
   if (!renderer.ok()) return fail(renderer.status().message(), 2);
 

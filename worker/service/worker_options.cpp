@@ -11,10 +11,11 @@ void add_worker_options(CLI::App& app, WorkerOptions* o) {
   app.add_option("--device", o->device, "Where stages run: auto (GPU when present), cpu or cuda")
       ->check(CLI::IsMember({"auto", "cpu", "cuda"}))
       ->capture_default_str();
-  auto* gpus = app.add_option("--gpus", o->gpus, "CUDA devices to use, e.g. 0,1 (one worker each; default: all)");
+  auto* gpus = app.add_option("--gpus", o->gpus,
+                              "CUDA devices to use, e.g. 0,1 (each runs the default jobs per GPU; default: all)");
   app.add_option("--concurrency", o->concurrency,
-                 "Jobs run at once (worker threads); default: one per GPU, or 1 on CPU, where each stage already "
-                 "uses every core")
+                 "Jobs run at once (worker threads); default: per GPU a quarter of the cores, 1 to 4 (a GPU job "
+                 "keeps about 4 cores busy), or 1 on CPU, where each stage already uses every core")
       ->check(CLI::Range(1, 256))
       ->excludes(gpus);
   app.add_option("--renderer", o->renderer, "Snapshot renderer: auto, egl or osmesa")
