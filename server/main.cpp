@@ -74,8 +74,7 @@ int run(const ServerOptions& o) {
   const bool redis = uses_redis(o);
   const int workers = o.workers >= 0 ? o.workers
                       : redis        ? 0
-                                     : default_workers(policy == DevicePolicy::kCpu ? 0 : gpus,
-                                                       tbb::this_task_arena::max_concurrency());
+                                     : default_workers(gpus, tbb::this_task_arena::max_concurrency());
   auto renderer = parse_renderer_kind(o.renderer);
   if (!renderer.ok()) return fail(renderer.status().message(), 2);
 

@@ -1085,6 +1085,18 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     ahead[count] = std::move(made);
   };
 
+  // A try's score, as a stage event on its result (`how`: how it started).
+  auto judge_try = [&](uint32_t count, PipelineResult* a, const char* how) -> StatusOr<double> {
+    const auto start = Clock::now();
+    VPR_ASSIGN_OR_RETURN(const VisualSimilarity similarity, reference.compare(a->mesh));
+    char note[128];
+    std::snprintf(note, sizeof note, "%u vertices: SSIM %.4f (bound %.4f)%s", count, similarity.ssim_mean, min_ssim,
+                  how);
+    a->stages.push_back({"visual_target", ms_since(start), "cpu", note, level});
+    if (live.on_stage) live.on_stage(a->stages.back());
+    return similarity.ssim_mean;
+  };
+
   VPR_ASSIGN_OR_RETURN(VisualSearch search, VisualSearch::start(search_options));
   std::optional<PipelineResult> best;  // the smallest passing count's, else the largest count's
   bool best_passed = false;
@@ -1121,18 +1133,8 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
     } else {
       VPR_RETURN_IF_ERROR(back_half_at(front, live, level, count, &attempt, warm));
     }
-    auto judge_try = [&](PipelineResult* a, const char* how) -> StatusOr<double> {
-      const auto start = Clock::now();
-      VPR_ASSIGN_OR_RETURN(const VisualSimilarity similarity, reference.compare(a->mesh));
-      char note[128];
-      std::snprintf(note, sizeof note, "%u vertices: SSIM %.4f (bound %.4f)%s", count, similarity.ssim_mean, min_ssim,
-                    how);
-      a->stages.push_back({"visual_target", ms_since(start), "cpu", note, level});
-      if (live.on_stage) live.on_stage(a->stages.back());
-      return similarity.ssim_mean;
-    };
     const bool cut_start = warm.from && warm.from == below.get();
-    VPR_ASSIGN_OR_RETURN(double ssim, judge_try(&attempt, cut_start ? " (a cut start)" : ""));
+    VPR_ASSIGN_OR_RETURN(double ssim, judge_try(count, &attempt, cut_start ? " (a cut start)" : ""));
     // A cut start that fails near the bound is confirmed from scratch
     // (PipelineOptions::visual_target_confirm): its failure would raise the
     // bracket's low end, and every later try lies above it.
@@ -1141,7 +1143,7 @@ StatusOr<PipelineResult> run_visual_target(FrontHalf& front, const PipelineOptio
       cold.keep = &kept;
       attempt = PipelineResult();
       VPR_RETURN_IF_ERROR(back_half_at(front, live, level, count, &attempt, cold));
-      VPR_ASSIGN_OR_RETURN(ssim, judge_try(&attempt, " (the cut start's count again, from scratch)"));
+      VPR_ASSIGN_OR_RETURN(ssim, judge_try(count, &attempt, " (the cut start's count again, from scratch)"));
       ++confirmed;
     }
     const bool passes = ssim >= min_ssim;

@@ -13,7 +13,7 @@ namespace vpr::service {
 struct WorkerOptions {
   std::string queue;               // --queue redis://[:PASSWORD@]HOST:PORT[/DB] (required)
   std::string device = "auto";     // --device auto|cpu|cuda
-  std::string gpus;                // --gpus 0,1: CUDA devices to use, one worker each (default: all)
+  std::string gpus;                // --gpus 0,1: CUDA devices to use, each with default_workers' share (default: all)
   int concurrency = 0;             // --concurrency N: worker threads (0: default_workers, server_options.h)
   std::string renderer = "auto";   // --renderer auto|egl|osmesa
   double visibility_timeout_s = 60;  // --visibility-timeout: silent this long, a job is reclaimed
