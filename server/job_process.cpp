@@ -65,13 +65,23 @@ void observe(ServiceMetrics* metrics, const v1::JobEvent& e) {
 
 }  // namespace
 
-bool is_job_process(int argc, char** argv, int* fd) {
-  if (argc != 3 || std::strcmp(argv[1], "--job-process") != 0) return false;
+namespace {
+
+bool parse_fd(const char* text, int* fd) {
   char* end = nullptr;
-  const long value = std::strtol(argv[2], &end, 10);
+  const long value = std::strtol(text, &end, 10);
   if (*end != '\0' || value < 0 || value > 1 << 20) return false;
   *fd = int(value);
   return true;
+}
+
+}  // namespace
+
+bool is_job_process(int argc, char** argv, JobProcessFds* fds) {
+  if ((argc != 3 && argc != 5) || std::strcmp(argv[1], "--job-process") != 0) return false;
+  if (!parse_fd(argv[2], &fds->channel)) return false;
+  fds->host_jobs = -1;
+  return argc == 3 || (std::strcmp(argv[3], "--host-jobs") == 0 && parse_fd(argv[4], &fds->host_jobs));
 }
 
 Status crash_status(int wait_status, const std::string& step, const JobProcessOptions& options, size_t rss_bytes,
@@ -98,10 +108,11 @@ StatusOr<std::unique_ptr<JobProcess>> JobProcess::start(const JobProcessOptions&
     return internal_error(std::string("cannot create the job process's channel: ") + std::strerror(errno));
   // Everything the child needs is ready before fork: between fork and exec
   // it may only make async-signal-safe calls (the parent has other threads).
-  std::string exe = options.exe, flag = "--job-process", fd_text = "3";
+  std::string exe = options.exe, flag = "--job-process", fd_text = "3", jobs_flag = "--host-jobs", jobs_fd = "4";
   char name[4096] = {0};  // argv[0]: the binary's own path, for ps and the logs
   if (readlink(exe.c_str(), name, sizeof name - 1) <= 0) std::snprintf(name, sizeof name, "%s", exe.c_str());
-  char* argv[] = {name, flag.data(), fd_text.data(), nullptr};
+  const bool count = options.host_jobs_fd >= 0;  // at 10 or above (HostJobCount::create)
+  char* argv[] = {name, flag.data(), fd_text.data(), count ? jobs_flag.data() : nullptr, jobs_fd.data(), nullptr};
   const pid_t pid = fork();
   if (pid < 0) {
     const int err = errno;
@@ -112,6 +123,7 @@ StatusOr<std::unique_ptr<JobProcess>> JobProcess::start(const JobProcessOptions&
   if (pid == 0) {
     // dup2 clears close-on-exec on the copy; on fd 3 itself, clear it by hand.
     if (sv[1] == 3 ? fcntl(3, F_SETFD, 0) != 0 : dup2(sv[1], 3) != 3) _exit(127);
+    if (count && dup2(options.host_jobs_fd, 4) != 4) _exit(127);
     sigset_t none;  // the server blocks SIGTERM/SIGINT in its threads; the job process takes them
     sigemptyset(&none);
     pthread_sigmask(SIG_SETMASK, &none, nullptr);

@@ -9,7 +9,9 @@
 // uploads and results stay in the parent. When the process dies, the thread
 // fails the job it was running with the signal and the step it was in (with
 // a shared queue, to the dead-letter stream: JobQueue::fail_crashed), and
-// starts a new process for the next job.
+// starts a new process for the next job. Each process also maps the pool's
+// count of busy job processes (server/host_job_count.h), so that its loops
+// split by its job's share of the host's cores.
 //
 // Limits per job process: CPU seconds per job (RLIMIT_CPU, raised by the
 // job's allowance at each job's start) and memory (RLIMIT_AS where the
@@ -29,14 +31,21 @@
 
 namespace vpr::service {
 
-// Reads --job-process FD from a main()'s arguments: true (and *fd set) when
-// this process is a job process and must run job_process_main(*fd).
-bool is_job_process(int argc, char** argv, int* fd);
+// Where a job process finds its channel and the server's job count.
+struct JobProcessFds {
+  int channel = -1;
+  int host_jobs = -1;  // -1: none (HostJobCount)
+};
+
+// Reads `--job-process FD [--host-jobs FD]` from a main()'s arguments: true
+// (and *fds set) when this process is a job process and must run
+// job_process_main(*fds).
+bool is_job_process(int argc, char** argv, JobProcessFds* fds);
 
 // The job process's whole life: read kInit, create the renderer, then run
 // each kJob and answer kJobDone, until the channel closes. Returns the exit
 // code.
-int job_process_main(int fd);
+int job_process_main(const JobProcessFds& fds);
 
 // The crash report for a job whose process ended: the status the job fails
 // with. `wait_status` is waitpid's; `step` the step it was in.

@@ -13,6 +13,8 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "core/running_jobs.h"
+#include "server/host_job_count.h"
 #include "server/job_channel.h"
 #include "server/job_process.h"
 #include "server/job_process_init.h"
@@ -92,7 +94,8 @@ void allow_cpu_seconds(double seconds) {
 
 }  // namespace
 
-int job_process_main(int fd) {
+int job_process_main(const JobProcessFds& fds) {
+  const int fd = fds.channel;
   prctl(PR_SET_PDEATHSIG, SIGKILL);  // never outlive the worker thread's process
   if (getppid() == 1) return 1;      // it is gone already
   signal(SIGPIPE, SIG_IGN);
@@ -120,6 +123,9 @@ int job_process_main(int fd) {
     if (setrlimit(RLIMIT_AS, &as) != 0) spdlog::warn("{}: cannot limit the address space", ctx.name);
     ctx.memory_limit_bytes = limits.memory_bytes;
   }
+  // The server's busy job processes share this host's cores with this one:
+  // loops split by this job's share of them (core/running_jobs.h).
+  if (fds.host_jobs >= 0) count_host_jobs(HostJobCount::attach(fds.host_jobs));
   init_cuda(ctx);
   auto renderer = create_renderer(ctx.renderer_kind);
   if (!renderer.ok()) {

@@ -275,7 +275,8 @@ int run(const ServerOptions& o) {
 }  // namespace vpr::service
 
 int main(int argc, char** argv) {
-  if (int fd = -1; vpr::service::is_job_process(argc, argv, &fd)) return vpr::service::job_process_main(fd);
+  if (vpr::service::JobProcessFds fds; vpr::service::is_job_process(argc, argv, &fds))
+    return vpr::service::job_process_main(fds);
   vpr::service::ServerOptions options;
   CLI::App app{"vpremesh-server: visual-perception-guided remeshing as a gRPC service"};
   vpr::service::add_server_options(app, &options);

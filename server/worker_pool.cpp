@@ -311,7 +311,16 @@ void run_job(JobQueue& queue, ClaimedJob job, const WorkerContext& ctx) {
 }
 
 WorkerPool::WorkerPool(JobQueue& queue, WorkerPoolOptions options, ServiceMetrics* metrics)
-    : queue_(queue), options_(std::move(options)), metrics_(metrics) {}
+    : queue_(queue), options_(std::move(options)), metrics_(metrics) {
+  if (options_.process.exe.empty()) return;
+  auto count = HostJobCount::create();
+  if (count.ok()) {
+    host_jobs_ = std::move(count).value();
+    options_.process.host_jobs_fd = host_jobs_->fd();
+  } else {
+    spdlog::warn("job processes will split their loops as if each ran alone: {}", count.status().message());
+  }
+}
 
 WorkerPool::~WorkerPool() {
   join();
@@ -407,6 +416,7 @@ void WorkerPool::worker_main(int index) {
       std::lock_guard<std::mutex> lock(mu_);
       running_[size_t(index)] = job->id;
       ++busy_;
+      if (host_jobs_) host_jobs_->set(int(busy_));
       if (metrics_) metrics_->busy_workers.set(double(busy_));
     }
     if (!isolated) {
@@ -447,6 +457,7 @@ void WorkerPool::worker_main(int index) {
       std::lock_guard<std::mutex> lock(mu_);
       running_[size_t(index)].clear();
       --busy_;
+      if (host_jobs_) host_jobs_->set(int(busy_));
       if (metrics_) metrics_->busy_workers.set(double(busy_));
     }
     changed_.notify_all();

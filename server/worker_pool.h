@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "pipeline/pipeline.h"
+#include "server/host_job_count.h"
 #include "server/job_queue.h"
 #include "server/limits.h"
 #include "server/service_metrics.h"
@@ -33,6 +34,9 @@ struct JobProcessOptions {
   size_t memory_bytes = size_t(32) << 30;
   // CPU time of one job, all threads together (--job-cpu-seconds; 0: unlimited).
   double cpu_seconds = 3600;
+  // The server's count of busy job processes (HostJobCount::fd), handed to
+  // each job process as descriptor kHostJobsFd; -1: none. Set by WorkerPool.
+  int host_jobs_fd = -1;
 };
 
 // What one worker runs a job with.
@@ -115,6 +119,7 @@ class WorkerPool {
   size_t ready_ = 0;
   std::vector<std::string> failures_;
   std::vector<std::string> running_;  // job id per worker ("" when idle)
+  std::unique_ptr<HostJobCount> host_jobs_;  // busy_, for the job processes (null: jobs in threads)
 };
 
 }  // namespace vpr::service

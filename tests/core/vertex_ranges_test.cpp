@@ -84,6 +84,27 @@ TEST(VertexRanges, ConcurrentJobsSplitByTheirShareOfTheThreads) {
   EXPECT_EQ(ranges_on_sixteen_threads(), int(kMaxVertexRanges));
 }
 
+// A job process of the service: its server counts four busy job processes
+// (this one among them) and the job splits its loops as one of four, though
+// it is the only job in its own process.
+TEST(VertexRanges, AJobProcessSplitsByItsShareOfTheHostsJobs) {
+  std::atomic<int> host{4};
+  count_host_jobs(&host);
+  {
+    const RunningJob job;
+    EXPECT_EQ(running_jobs(), 4);
+    EXPECT_EQ(ranges_on_sixteen_threads(), 4);
+    host = 2;
+    EXPECT_EQ(ranges_on_sixteen_threads(), 8) << "two jobs on 16 threads: 8 each, the cap";
+    host = 0;  // the server has not counted this one yet: the process's own count holds
+    EXPECT_EQ(running_jobs(), 1);
+  }
+  host = 16;
+  EXPECT_EQ(ranges_on_sixteen_threads(), 1);
+  count_host_jobs(nullptr);
+  EXPECT_EQ(running_jobs(), 1);
+}
+
 TEST(VertexRanges, FewVerticesAreOneRange) {
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 8);
   std::vector<std::pair<uint32_t, uint32_t>> seen;

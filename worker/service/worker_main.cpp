@@ -137,7 +137,8 @@ int run(const WorkerOptions& o) {
 }  // namespace vpr::service
 
 int main(int argc, char** argv) {
-  if (int fd = -1; vpr::service::is_job_process(argc, argv, &fd)) return vpr::service::job_process_main(fd);
+  if (vpr::service::JobProcessFds fds; vpr::service::is_job_process(argc, argv, &fds))
+    return vpr::service::job_process_main(fds);
   vpr::service::WorkerOptions options;
   CLI::App app{"vpremesh-worker: runs remeshing jobs from a Redis Streams queue shared with vpremesh-server"};
   vpr::service::add_worker_options(app, &options);
