@@ -6,8 +6,10 @@
 #include <cmath>
 #include <cstdio>
 #include <numeric>
+#include <utility>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "core/median.h"
@@ -99,27 +101,56 @@ namespace {
 // by the part's signed volume about its own bounding-box centre, so that a
 // part stored inside out among others is turned round on its own.
 std::vector<char> faces_outwards(const Mesh& mesh) {
+  const size_t nf = mesh.face_count();
   size_t parts = 0;
   const std::vector<uint32_t> part = face_parts(mesh, &parts);
   const float* p = mesh.positions.data();
-  std::vector<Vec3d> lo(parts, Vec3d{HUGE_VAL, HUGE_VAL, HUGE_VAL}), hi(parts, Vec3d{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL});
-  for (size_t f = 0; f < mesh.face_count(); ++f) {
-    if (part[f] == UINT32_MAX) continue;
-    for (int c = 0; c < 3; ++c) {
-      const Vec3d x = load3d(p, mesh.indices[3 * f + c]);
-      Vec3d& l = lo[part[f]];
-      Vec3d& h = hi[part[f]];
-      l = {std::min(l.x, x.x), std::min(l.y, x.y), std::min(l.z, x.z)};
-      h = {std::max(h.x, x.x), std::max(h.y, x.y), std::max(h.z, x.z)};
+  // Each part's bounding box: a min and max, the same in any order, so each
+  // thread boxes its own faces and the boxes are merged (one loop where
+  // parts are so many that a box per part per thread costs more).
+  using Box = std::pair<Vec3d, Vec3d>;
+  const Box empty{Vec3d{HUGE_VAL, HUGE_VAL, HUGE_VAL}, Vec3d{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}};
+  auto grow = [&](std::vector<Box>& box, size_t lo, size_t hi) {
+    for (size_t f = lo; f < hi; ++f) {
+      if (part[f] == UINT32_MAX) continue;
+      Box& b = box[part[f]];
+      for (int c = 0; c < 3; ++c) {
+        const Vec3d x = load3d(p, mesh.indices[3 * f + c]);
+        b.first = {std::min(b.first.x, x.x), std::min(b.first.y, x.y), std::min(b.first.z, x.z)};
+        b.second = {std::max(b.second.x, x.x), std::max(b.second.y, x.y), std::max(b.second.z, x.z)};
+      }
     }
+  };
+  std::vector<Box> box(parts, empty);
+  if (parts <= 1024) {
+    tbb::enumerable_thread_specific<std::vector<Box>> local([&] { return std::vector<Box>(parts, empty); });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 16384),
+                      [&](const tbb::blocked_range<size_t>& r) { grow(local.local(), r.begin(), r.end()); });
+    for (const std::vector<Box>& mine : local)
+      for (size_t k = 0; k < parts; ++k) {
+        Box& b = box[k];
+        b.first = {std::min(b.first.x, mine[k].first.x), std::min(b.first.y, mine[k].first.y),
+                   std::min(b.first.z, mine[k].first.z)};
+        b.second = {std::max(b.second.x, mine[k].second.x), std::max(b.second.y, mine[k].second.y),
+                    std::max(b.second.z, mine[k].second.z)};
+      }
+  } else {
+    grow(box, 0, nf);
   }
+  // Each face's term in parallel, then summed in face order: the same bits as
+  // one loop adding them as it goes.
+  std::vector<double> term(nf, 0.0);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f != r.end(); ++f)
+      if (part[f] != UINT32_MAX) term[f] = face_volume6(mesh, f, 0.5 * (box[part[f]].first + box[part[f]].second));
+  });
   std::vector<double> volume(parts, 0.0);
-  for (size_t f = 0; f < mesh.face_count(); ++f) {
-    if (part[f] == UINT32_MAX) continue;
-    volume[part[f]] += face_volume6(mesh, f, 0.5 * (lo[part[f]] + hi[part[f]]));
-  }
-  std::vector<char> out(mesh.face_count(), 1);
-  for (size_t f = 0; f < mesh.face_count(); ++f) out[f] = part[f] == UINT32_MAX || volume[part[f]] >= 0;
+  for (size_t f = 0; f < nf; ++f)
+    if (part[f] != UINT32_MAX) volume[part[f]] += term[f];
+  std::vector<char> out(nf, 1);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t f = r.begin(); f != r.end(); ++f) out[f] = part[f] == UINT32_MAX || volume[part[f]] >= 0;
+  });
   return out;
 }
 
