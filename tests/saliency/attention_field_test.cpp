@@ -6,6 +6,8 @@
 #include "saliency/attention_field.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -193,6 +195,53 @@ TEST(AttentionField, GridMeansEqualBruteForce) {
     ++checked;
   }
   EXPECT_GT(checked, 400u);
+}
+
+// The grid lists each cell's vertices in index order, cells in order, with
+// their positions and curvature beside: the same grid on any thread count
+// (it is binned in parallel), on 60,000 random vertices.
+TEST(AttentionField, GridIsTheSameOnAnyThreadCount) {
+  std::vector<float> p, h;
+  uint32_t state = 99;
+  auto next = [&]() {
+    state = state * 1664525u + 1013904223u;
+    return float(state >> 8) / float(1u << 24);
+  };
+  for (int i = 0; i < 60000; ++i) {
+    p.insert(p.end(), {next(), 0.5f * next(), 0.25f * next()});
+    h.push_back(next());
+  }
+  AttentionFieldOptions o;
+  o.coarse_sigma = 0.03f;
+  const size_t n = h.size();
+  VertexGrid one;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    one = build_vertex_grid(p.data(), h.data(), n, o);
+  }
+  ASSERT_EQ(one.order.size(), n);
+  ASSERT_EQ(one.cell_start.back(), n);
+  const size_t cells = size_t(one.dims[0]) * one.dims[1] * one.dims[2];
+  ASSERT_EQ(one.cell_start.size(), cells + 1);
+  EXPECT_GT(cells, 100u);
+  for (size_t c = 0; c < cells; ++c)
+    for (uint32_t t = one.cell_start[c]; t < one.cell_start[c + 1]; ++t) {
+      const uint32_t v = one.order[t];
+      if (t > one.cell_start[c]) EXPECT_LT(one.order[t - 1], v) << "cell " << c;
+      const int x = std::min(int((p[3 * v] - one.lo[0]) / one.cell), one.dims[0] - 1);
+      EXPECT_EQ(size_t(x), c % size_t(one.dims[0])) << "vertex " << v;
+      EXPECT_EQ(one.sorted[4 * t], p[3 * v]);
+      EXPECT_EQ(one.sorted[4 * t + 3], h[v]);
+    }
+  for (int threads : {2, 4, 8}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    tbb::task_arena arena(threads);
+    VertexGrid g;
+    arena.execute([&] { g = build_vertex_grid(p.data(), h.data(), n, o); });
+    EXPECT_EQ(g.order, one.order) << threads << " threads";
+    EXPECT_EQ(g.cell_start, one.cell_start);
+    EXPECT_EQ(g.sorted, one.sorted);
+  }
 }
 
 // The weighted count of feature points near a vertex equals a brute-force sum,

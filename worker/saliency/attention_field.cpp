@@ -8,9 +8,11 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <numeric>
 #include <string>
 
+#include "core/bucket_sort.h"
 #include "core/median.h"
 
 namespace vpr {
@@ -121,26 +123,29 @@ VertexGrid build_vertex_grid(const float* vertices, const float* curvature, size
   for (int a = 0; a < 3; ++a) g.dims[a] = std::max(1, int((hi[a] - g.lo[a]) / g.cell) + 1);
   const size_t cells = size_t(g.dims[0]) * g.dims[1] * g.dims[2];
   std::vector<uint32_t> cell_of(n);
-  g.cell_start.assign(cells + 1, 0);
-  for (size_t v = 0; v < n; ++v) {
-    int c[3];
-    for (int a = 0; a < 3; ++a) {
-      const int t = int((vertices[3 * v + a] - g.lo[a]) / g.cell);
-      c[a] = std::clamp(t, 0, g.dims[a] - 1);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v) {
+      int c[3];
+      for (int a = 0; a < 3; ++a) {
+        const int t = int((vertices[3 * v + a] - g.lo[a]) / g.cell);
+        c[a] = std::clamp(t, 0, g.dims[a] - 1);
+      }
+      cell_of[v] = uint32_t((size_t(c[2]) * g.dims[1] + c[1]) * g.dims[0] + c[0]);
     }
-    cell_of[v] = uint32_t((size_t(c[2]) * g.dims[1] + c[1]) * g.dims[0] + c[0]);
-    ++g.cell_start[cell_of[v] + 1];
-  }
-  std::partial_sum(g.cell_start.begin(), g.cell_start.end(), g.cell_start.begin());
-  std::vector<uint32_t> next(g.cell_start.begin(), g.cell_start.end() - 1);
-  g.order.resize(n);
+  });
+  // Vertices by cell, each cell's in index order (the serial counting sort's
+  // order, whatever the schedule), then their positions and curvature.
+  bucket_sort<uint32_t>(
+      n, cells, [&](size_t v) { return cell_of[v]; }, [](size_t v) { return uint32_t(v); }, std::less<uint32_t>(),
+      &g.cell_start, &g.order);
   g.sorted.resize(4 * n);
-  for (size_t v = 0; v < n; ++v) {  // counting sort: stable, so the order is the same on every run
-    const uint32_t t = next[cell_of[v]]++;
-    g.order[t] = uint32_t(v);
-    for (int a = 0; a < 3; ++a) g.sorted[4 * t + a] = vertices[3 * v + a];
-    g.sorted[4 * t + 3] = curvature[v];
-  }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16384), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t != r.end(); ++t) {
+      const uint32_t v = g.order[t];
+      for (int a = 0; a < 3; ++a) g.sorted[4 * t + a] = vertices[3 * v + a];
+      g.sorted[4 * t + 3] = curvature[v];
+    }
+  });
   return g;
 }
 

@@ -12,6 +12,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include "core/bucket_sort.h"
 #include "core/median.h"
 #include "core/mesh_parts.h"
 #include "core/vec3.h"
@@ -38,36 +39,6 @@ const char* density_mode_name(DensityMode mode) {
   }
   return "perception";
 }
-
-namespace {
-
-// Counting sort of items into buckets, in parallel: bucket_of(i) for item i
-// in [0, n); start gets buckets + 1 offsets, slot the items bucket by bucket,
-// each bucket then sorted by `less` (so the order is the same on any thread
-// count whatever order the atomics filled it in).
-template <class Item, class BucketOf, class MakeItem, class Less>
-void bucket_sort(size_t n, size_t buckets, BucketOf bucket_of, MakeItem make_item, Less less,
-                 std::vector<uint32_t>* start, std::vector<Item>* slot) {
-  std::vector<std::atomic<uint32_t>> count(buckets + 1);
-  for (auto& c : count) c.store(0, std::memory_order_relaxed);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8192), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i) count[bucket_of(i) + 1].fetch_add(1, std::memory_order_relaxed);
-  });
-  start->assign(buckets + 1, 0);
-  for (size_t b = 1; b <= buckets; ++b) (*start)[b] = (*start)[b - 1] + count[b].load(std::memory_order_relaxed);
-  for (size_t b = 0; b < buckets; ++b) count[b].store((*start)[b], std::memory_order_relaxed);
-  slot->resize(n);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8192), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i)
-      (*slot)[count[bucket_of(i)].fetch_add(1, std::memory_order_relaxed)] = make_item(i);
-  });
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets, 4096), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t b = r.begin(); b != r.end(); ++b)
-      std::sort(slot->begin() + (*start)[b], slot->begin() + (*start)[b + 1], less);
-  });
-}
-
-}  // namespace
 
 std::vector<double> mean_curvature(const Mesh& mesh) {
   std::vector<double> h;
