@@ -2,8 +2,11 @@
 // mesh validation messages, areas, colors and textures on a mesh, the sRGB
 // transfer function.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "core/color.h"
@@ -63,6 +66,75 @@ TEST(ValidateMesh, AcceptsASquareAndMeasuresIt) {
   EXPECT_DOUBLE_EQ(total_area(m), 1.0);
   EXPECT_FLOAT_EQ(bounding_box(m).diagonal(), std::sqrt(2.0f));
   EXPECT_NEAR(mean_edge_length(m), (4 + 2 * std::sqrt(2.0)) / 6.0, 1e-12);
+}
+
+// A grid of n x n vertices in two triangles a square, large enough that the
+// checks run in many blocks at once.
+Mesh large_grid(uint32_t n) {
+  Mesh m;
+  for (uint32_t y = 0; y < n; ++y)
+    for (uint32_t x = 0; x < n; ++x) m.positions.insert(m.positions.end(), {float(x), float(y), 0.0f});
+  for (uint32_t y = 0; y + 1 < n; ++y)
+    for (uint32_t x = 0; x + 1 < n; ++x) {
+      const uint32_t v = y * n + x;
+      m.indices.insert(m.indices.end(), {v, v + 1, v + n, v + 1, v + n + 1, v + n});
+    }
+  return m;
+}
+
+// The checks run in parallel; the message still names the first offender,
+// on any thread count.
+TEST(ValidateMesh, NamesTheFirstOffenderOfALargeMesh) {
+  const Mesh grid = large_grid(400);  // 160,000 vertices, 318,402 faces
+  for (int threads : {1, 2, 4, 8}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      EXPECT_TRUE(validate_mesh(grid).ok());
+      Mesh nan = grid;
+      nan.positions[3 * 150000 + 2] = std::numeric_limits<float>::infinity();
+      nan.positions[3 * 70001 + 1] = std::numeric_limits<float>::quiet_NaN();
+      nan.positions[3 * 120000] = std::numeric_limits<float>::quiet_NaN();
+      Status s = validate_mesh(nan);
+      EXPECT_NE(s.message().find("vertex 70001 has"), std::string::npos) << threads << ": " << s.message();
+      Mesh oob = grid;
+      oob.indices[3 * 300000 + 1] = 160000;
+      oob.indices[3 * 90000 + 2] = 170000;
+      s = validate_mesh(oob);
+      EXPECT_NE(s.message().find("face 90000 references vertex 170000"), std::string::npos)
+          << threads << ": " << s.message();
+      Mesh flat = grid;
+      for (size_t i = 0; i < flat.vertex_count(); ++i) flat.positions[3 * i + 1] = 0;
+      EXPECT_NE(validate_mesh(flat).message().find("zero area"), std::string::npos);
+      flat.positions[3 * (400 * 399 + 399) + 1] = 1e-3f;  // one face of the last square has area
+      EXPECT_TRUE(validate_mesh(flat).ok()) << threads << " threads";
+    });
+  }
+}
+
+// The frame (origin, scale) and positions from absolute coordinates are the
+// same on any thread count, a bound of zero of either sign included.
+TEST(MeshFromAbsolute, TheSameOnAnyThreadCount) {
+  const Mesh grid = large_grid(300);
+  std::vector<double> absolute(grid.positions.size());
+  for (size_t i = 0; i < absolute.size(); ++i)
+    absolute[i] = i % 3 == 2 ? (i % 2 ? -0.0 : 0.0) : 1e6 + 0.25 * double(grid.positions[i]);
+  Mesh one;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    one = mesh_from_absolute(absolute, grid.indices);
+  }
+  EXPECT_DOUBLE_EQ(one.origin[0], 1e6 + 0.25 * 299 / 2);
+  EXPECT_EQ(std::signbit(one.origin[2]), false);
+  for (int threads : {2, 4, 8}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    tbb::task_arena arena(threads);
+    Mesh m;
+    arena.execute([&] { m = mesh_from_absolute(absolute, grid.indices); });
+    EXPECT_EQ(m.origin, one.origin) << threads << " threads";
+    EXPECT_EQ(m.scale, one.scale);
+    EXPECT_EQ(0, std::memcmp(m.positions.data(), one.positions.data(), 4 * m.positions.size())) << threads;
+  }
 }
 
 TEST(ValidateMesh, NamesEachProblem) {

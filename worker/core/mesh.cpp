@@ -1,6 +1,11 @@
 #include "core/mesh.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cfloat>
 #include <cmath>
 #include <cstring>
@@ -10,6 +15,33 @@
 #include "core/vec3.h"
 
 namespace vpr {
+namespace {
+
+// The lowest i in [0, n) where bad(i), or n: blocks in parallel, each
+// stopping at its first hit, a block skipped once a lower block has one.
+template <class Bad>
+size_t first_where(size_t n, Bad bad) {
+  std::atomic<size_t> first{n};
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 32768), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end() && i < first.load(std::memory_order_relaxed); ++i)
+      if (bad(i)) {
+        size_t seen = first.load(std::memory_order_relaxed);
+        while (i < seen && !first.compare_exchange_weak(seen, i, std::memory_order_relaxed)) {
+        }
+        return;
+      }
+  });
+  return first.load();
+}
+
+double face_area(const Mesh& mesh, size_t f) {
+  const Vec3d a = load3d(mesh.positions.data(), mesh.indices[3 * f]);
+  const Vec3d b = load3d(mesh.positions.data(), mesh.indices[3 * f + 1]);
+  const Vec3d c = load3d(mesh.positions.data(), mesh.indices[3 * f + 2]);
+  return 0.5 * norm(cross(b - a, c - a));
+}
+
+}  // namespace
 
 float Aabb::diagonal() const {
   float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
@@ -34,17 +66,21 @@ Status validate_mesh(const Mesh& mesh, const MeshLimits& limits) {
     if (!std::isfinite(mesh.origin[size_t(a)])) return invalid_argument("the mesh's origin is not finite");
   }
   if (!(mesh.scale > 0) || !std::isfinite(mesh.scale)) return invalid_argument("the mesh's scale is not positive");
-  for (size_t i = 0; i < mesh.positions.size(); ++i) {
-    if (!std::isfinite(mesh.positions[i]))
-      return invalid_argument("vertex " + std::to_string(i / 3) + " has a non-finite coordinate (NaN or infinity)");
-  }
-  for (size_t i = 0; i < mesh.indices.size(); ++i) {
-    if (mesh.indices[i] >= nv)
-      return invalid_argument("face " + std::to_string(i / 3) + " references vertex " +
-                              std::to_string(mesh.indices[i]) + " but the mesh has " + std::to_string(nv) +
-                              " vertices");
-  }
-  if (!(total_area(mesh) > 0.0)) return invalid_argument("degenerate mesh: every face has zero area");
+  // Each test in parallel; the error names the first offender.
+  const size_t bad_coordinate =
+      first_where(mesh.positions.size(), [&](size_t i) { return !std::isfinite(mesh.positions[i]); });
+  if (bad_coordinate < mesh.positions.size())
+    return invalid_argument("vertex " + std::to_string(bad_coordinate / 3) +
+                            " has a non-finite coordinate (NaN or infinity)");
+  const size_t bad_index = first_where(mesh.indices.size(), [&](size_t i) { return mesh.indices[i] >= nv; });
+  if (bad_index < mesh.indices.size())
+    return invalid_argument("face " + std::to_string(bad_index / 3) + " references vertex " +
+                            std::to_string(mesh.indices[bad_index]) + " but the mesh has " + std::to_string(nv) +
+                            " vertices");
+  // The areas are finite and never negative here: their sum is positive
+  // exactly when one of them is.
+  if (first_where(nf, [&](size_t f) { return face_area(mesh, f) > 0.0; }) == nf)
+    return invalid_argument("degenerate mesh: every face has zero area");
   return validate_appearance(mesh);
 }
 
@@ -97,24 +133,44 @@ Mesh mesh_from_absolute(const std::vector<double>& positions, std::vector<uint32
   const size_t nv = positions.size() / 3;
   // Only coordinates a float can hold count; the others are reported.
   auto usable = [](double x) { return std::abs(x) <= double(FLT_MAX); };
-  double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-  auto include = [&](size_t v) {
-    for (int a = 0; a < 3; ++a) {
-      const double x = positions[3 * v + size_t(a)];
-      if (!usable(x)) continue;
-      lo[a] = std::min(lo[a], x);
-      hi[a] = std::max(hi[a], x);
-    }
+  // The box of the vertices faces use (of all of them when no face is whole):
+  // a min and max, the same whatever order the threads take them in.
+  const size_t ni = mesh.indices.size();
+  const bool any_face = first_where(ni, [&](size_t k) { return mesh.indices[k] < nv; }) < ni;
+  const size_t count = any_face ? ni : nv;
+  auto vertex = [&](size_t k) { return any_face ? size_t(mesh.indices[k]) : k; };
+  struct Box {
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   };
-  bool any_face = false;
-  for (uint32_t i : mesh.indices) {
-    if (i < nv) {
-      include(i);
-      any_face = true;
-    }
+  const Box box = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, count, 32768), Box{},
+      [&](const tbb::blocked_range<size_t>& r, Box b) {
+        for (size_t k = r.begin(); k != r.end(); ++k) {
+          const size_t v = vertex(k);
+          if (v >= nv) continue;
+          for (int a = 0; a < 3; ++a) {
+            const double x = positions[3 * v + size_t(a)];
+            if (!usable(x)) continue;
+            b.lo[a] = std::min(b.lo[a], x);
+            b.hi[a] = std::max(b.hi[a], x);
+          }
+        }
+        return b;
+      },
+      [](Box x, const Box& y) {
+        for (int a = 0; a < 3; ++a) {
+          x.lo[a] = std::min(x.lo[a], y.lo[a]);
+          x.hi[a] = std::max(x.hi[a], y.hi[a]);
+        }
+        return x;
+      });
+  // -0.0 and +0.0 compare equal, so which one a bound holds would depend on
+  // the schedule: a bound of zero is +0.0.
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = box.lo[a] == 0 ? 0.0 : box.lo[a];
+    hi[a] = box.hi[a] == 0 ? 0.0 : box.hi[a];
   }
-  if (!any_face)
-    for (size_t v = 0; v < nv; ++v) include(v);
   double diag2 = 0;
   for (int a = 0; a < 3; ++a) {
     if (!(lo[a] <= hi[a])) continue;
@@ -125,12 +181,14 @@ Mesh mesh_from_absolute(const std::vector<double>& positions, std::vector<uint32
   const double diagonal = 2 * std::sqrt(diag2);
   if (diagonal > 0 && std::isfinite(diagonal)) mesh.scale = diagonal;
   mesh.positions.resize(3 * nv);
-  for (size_t i = 0; i < 3 * nv; ++i) {
-    const double x = positions[i];
-    mesh.positions[i] = usable(x) ? float((x - mesh.origin[i % 3]) / mesh.scale) : x > 0 ? HUGE_VALF
-                                                                                  : x < 0 ? -HUGE_VALF
-                                                                                          : NAN;
-  }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nv, 32768), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      const double x = positions[i];
+      mesh.positions[i] = usable(x) ? float((x - mesh.origin[i % 3]) / mesh.scale) : x > 0 ? HUGE_VALF
+                                                                                    : x < 0 ? -HUGE_VALF
+                                                                                            : NAN;
+    }
+  });
   return mesh;
 }
 
@@ -229,12 +287,7 @@ size_t remove_unreferenced_vertices(Mesh* mesh, std::vector<uint32_t>* used) {
 std::vector<double> face_areas(const Mesh& mesh) {
   const size_t nf = mesh.face_count();
   std::vector<double> areas(nf);
-  for (size_t f = 0; f < nf; ++f) {
-    const Vec3d a = load3d(mesh.positions.data(), mesh.indices[3 * f]);
-    const Vec3d b = load3d(mesh.positions.data(), mesh.indices[3 * f + 1]);
-    const Vec3d c = load3d(mesh.positions.data(), mesh.indices[3 * f + 2]);
-    areas[f] = 0.5 * norm(cross(b - a, c - a));
-  }
+  for (size_t f = 0; f < nf; ++f) areas[f] = face_area(mesh, f);
   return areas;
 }
 

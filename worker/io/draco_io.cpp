@@ -4,7 +4,11 @@
 // attribute whose attribute metadata entry "name" is "saliency", and
 // optionally the vertex colors as a COLOR attribute (3 normalized uint8,
 // sRGB, as Draco's PLY reader stores PLY colors).
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -221,20 +225,45 @@ Status check_numeric(const draco::PointAttribute& att, const char* what) {
 template <class T>
 bool gather(const draco::PointAttribute& att, uint32_t num_points, int components, T* out) {
   if (!att.is_mapping_identity() && att.indices_map_size() < num_points) return false;
-  double value[4];
   if (components < 1 || components > 4) return false;
-  for (uint32_t p = 0; p < num_points; ++p) {
-    const draco::AttributeValueIndex index = att.mapped_index(draco::PointIndex(p));
-    if (index.value() >= att.size()) return false;
-    if (!att.ConvertValue<double>(index, int8_t(components), value)) return false;
-    for (int c = 0; c < components; ++c) {
-      if constexpr (std::is_same_v<T, float>)
-        out[size_t(p) * components + c] = to_float(value[c]);
-      else
-        out[size_t(p) * components + c] = value[c];
+  // Floats are read as they are stored (what ConvertValue gives them, without
+  // its per-value dispatch); other types through ConvertValue.
+  const draco::DataType type = att.data_type();
+  const bool plain = (type == draco::DT_FLOAT32 || type == draco::DT_FLOAT64) && att.num_components() >= components &&
+                     att.buffer() != nullptr;
+  std::atomic<bool> ok{true};
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, num_points, 16384), [&](const tbb::blocked_range<uint32_t>& r) {
+    double value[4];
+    for (uint32_t p = r.begin(); p != r.end(); ++p) {
+      const draco::AttributeValueIndex index = att.mapped_index(draco::PointIndex(p));
+      if (index.value() >= att.size()) {
+        ok = false;
+        return;
+      }
+      if (plain) {
+        const uint8_t* at = att.GetAddress(index);
+        for (int c = 0; c < components; ++c) {
+          if (type == draco::DT_FLOAT32) {
+            float f;
+            std::memcpy(&f, at + c * sizeof f, sizeof f);
+            value[c] = f;
+          } else {
+            std::memcpy(&value[c], at + c * sizeof(double), sizeof(double));
+          }
+        }
+      } else if (!att.ConvertValue<double>(index, int8_t(components), value)) {
+        ok = false;
+        return;
+      }
+      for (int c = 0; c < components; ++c) {
+        if constexpr (std::is_same_v<T, float>)
+          out[size_t(p) * components + c] = to_float(value[c]);
+        else
+          out[size_t(p) * components + c] = value[c];
+      }
     }
-  }
-  return true;
+  });
+  return ok.load();
 }
 
 // Positions on the grid Draco's quantizer would use (AttributeQuantization-
@@ -289,10 +318,12 @@ StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& l
   if (!gather(*position, num_points, 3, positions.data()))
     return invalid_argument("Draco: the position attribute does not cover every point (corrupt data)");
   std::vector<uint32_t> indices(size_t(num_faces) * 3);
-  for (uint32_t f = 0; f < num_faces; ++f) {
-    const draco::Mesh::Face& face = dm->face(draco::FaceIndex(f));
-    for (int k = 0; k < 3; ++k) indices[3 * size_t(f) + k] = face[k].value();
-  }
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, num_faces, 32768), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t f = r.begin(); f != r.end(); ++f) {
+      const draco::Mesh::Face& face = dm->face(draco::FaceIndex(f));
+      for (int k = 0; k < 3; ++k) indices[3 * size_t(f) + k] = face[k].value();
+    }
+  });
   Mesh mesh = mesh_from_absolute(positions, std::move(indices));
   // The writer's frame, when it left one and it is usable: the same floats.
   const draco::AttributeMetadata* position_metadata =
@@ -307,10 +338,12 @@ StatusOr<Mesh> parse_draco(const uint8_t* data, size_t size, const MeshLimits& l
     return std::fabs(f[3] - mesh.scale) <= 1e-6 * mesh.scale;
   };
   if (position_metadata && position_metadata->GetEntryDoubleArray(kFrameName, &frame) && near_computed(frame)) {
-    for (size_t i = 0; i < positions.size(); ++i) {
-      const double x = (positions[i] - frame[i % 3]) / frame[3];
-      mesh.positions[i] = std::isnan(positions[i]) ? NAN : to_float(x);
-    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, positions.size(), 32768), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i != r.end(); ++i) {
+        const double x = (positions[i] - frame[i % 3]) / frame[3];
+        mesh.positions[i] = std::isnan(positions[i]) ? NAN : to_float(x);
+      }
+    });
     mesh.origin = {frame[0], frame[1], frame[2]};
     mesh.scale = frame[3];
   }
