@@ -1,67 +1,45 @@
 #include "core/mesh_parts.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <limits>
-#include <memory>
 #include <numeric>
 
-#include "core/concurrent_parents.h"
-
 namespace vpr {
+namespace {
 
-// In parallel, with a serial walk's numbering: the union-find roots each
-// part at its lowest vertex whatever the schedule, and the parts are then
-// numbered by their first face, as a loop over the faces in order numbers
-// them. The dual and the CVT's part fallback call it on the refined surface
-// (up to millions of faces), the density on the input.
+uint32_t find(std::vector<uint32_t>& up, uint32_t v) {
+  while (up[v] != v) v = up[v] = up[up[v]];
+  return v;
+}
+
+}  // namespace
+
 std::vector<uint32_t> face_parts(const Mesh& mesh, size_t* parts) {
   const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
-  const uint32_t* idx = mesh.indices.data();
-  auto valid = [&](size_t f) { return idx[3 * f] < nv && idx[3 * f + 1] < nv && idx[3 * f + 2] < nv; };
-  ConcurrentParents parents(nv);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 8192), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t f = r.begin(); f != r.end(); ++f)
-      if (valid(f)) {
-        parents.unite(idx[3 * f], idx[3 * f + 1]);
-        parents.unite(idx[3 * f], idx[3 * f + 2]);
-      }
-  });
-  // Each face's root, and each root's first face (the lowest, by atomic min).
-  std::vector<uint32_t> part(nf, UINT32_MAX);
-  std::unique_ptr<std::atomic<uint32_t>[]> first(new std::atomic<uint32_t>[nv]);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 16384), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t v = r.begin(); v != r.end(); ++v) first[v].store(UINT32_MAX, std::memory_order_relaxed);
-  });
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 8192), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t f = r.begin(); f != r.end(); ++f) {
-      if (!valid(f)) continue;
-      const uint32_t root = parents.find(idx[3 * f]);
-      part[f] = root;
-      uint32_t seen = first[root].load(std::memory_order_relaxed);
-      while (uint32_t(f) < seen && !first[root].compare_exchange_weak(seen, uint32_t(f), std::memory_order_relaxed)) {
-      }
+  std::vector<uint32_t> up(nv);
+  std::iota(up.begin(), up.end(), 0u);
+  auto valid = [&](size_t f) {
+    return mesh.indices[3 * f] < nv && mesh.indices[3 * f + 1] < nv && mesh.indices[3 * f + 2] < nv;
+  };
+  for (size_t f = 0; f < nf; ++f) {
+    if (!valid(f)) continue;
+    const uint32_t a = find(up, mesh.indices[3 * f]);
+    for (int k = 1; k < 3; ++k) {
+      const uint32_t b = find(up, mesh.indices[3 * f + k]);
+      if (a != b) up[std::max(a, b)] = std::min(a, b);
     }
-  });
-  // Roots in order of their first face: the parts' numbers.
-  std::vector<uint32_t> roots;
-  for (size_t v = 0; v < nv; ++v)
-    if (first[v].load(std::memory_order_relaxed) != UINT32_MAX) roots.push_back(uint32_t(v));
-  std::sort(roots.begin(), roots.end(), [&](uint32_t a, uint32_t b) {
-    return first[a].load(std::memory_order_relaxed) < first[b].load(std::memory_order_relaxed);
-  });
-  std::vector<uint32_t> id_of_root(roots.empty() ? 0 : nv);
-  for (size_t i = 0; i < roots.size(); ++i) id_of_root[roots[i]] = uint32_t(i);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 16384), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t f = r.begin(); f != r.end(); ++f)
-      if (part[f] != UINT32_MAX) part[f] = id_of_root[part[f]];
-  });
-  if (parts) *parts = roots.size();
+  }
+  std::vector<uint32_t> id_of_root(nv, UINT32_MAX), part(nf, UINT32_MAX);
+  uint32_t count = 0;
+  for (size_t f = 0; f < nf; ++f) {
+    if (!valid(f)) continue;
+    const uint32_t r = find(up, mesh.indices[3 * f]);
+    if (id_of_root[r] == UINT32_MAX) id_of_root[r] = count++;
+    part[f] = id_of_root[r];
+  }
+  if (parts) *parts = count;
   return part;
 }
 
