@@ -20,6 +20,16 @@
 namespace vpr {
 namespace {
 
+// Uniform floats in [0, 1) from a linear congruential generator: the same
+// cloud on every machine.
+struct Uniform {
+  uint32_t state;
+  float operator()() {
+    state = state * 1664525u + 1013904223u;
+    return float(state >> 8) / float(1u << 24);
+  }
+};
+
 const ExecContext kCpu{};
 
 // The field's curvature as the pipeline computes it (concave edges weighed by
@@ -164,11 +174,7 @@ TEST(AttentionField, SpansItsRangeWithFewVerticesAtTheMaximum) {
 // corner of the grid).
 TEST(AttentionField, GridMeansEqualBruteForce) {
   std::vector<float> p, h;
-  uint32_t state = 12345;
-  auto next = [&]() {
-    state = state * 1664525u + 1013904223u;
-    return float(state >> 8) / float(1u << 24);
-  };
+  Uniform next{12345};
   for (int i = 0; i < 3000; ++i) {
     p.insert(p.end(), {next(), 0.5f * next(), 0.25f * next()});
     h.push_back(next());
@@ -202,11 +208,7 @@ TEST(AttentionField, GridMeansEqualBruteForce) {
 // (it is binned in parallel), on 60,000 random vertices.
 TEST(AttentionField, GridIsTheSameOnAnyThreadCount) {
   std::vector<float> p, h;
-  uint32_t state = 99;
-  auto next = [&]() {
-    state = state * 1664525u + 1013904223u;
-    return float(state >> 8) / float(1u << 24);
-  };
+  Uniform next{99};
   for (int i = 0; i < 60000; ++i) {
     p.insert(p.end(), {next(), 0.5f * next(), 0.25f * next()});
     h.push_back(next());
@@ -249,11 +251,7 @@ TEST(AttentionField, GridIsTheSameOnAnyThreadCount) {
 // cells).
 TEST(AttentionField, FeaturePointDensityEqualsBruteForce) {
   std::vector<float> p, h(2000, 1.0f), q;
-  uint32_t state = 777;
-  auto next = [&]() {
-    state = state * 1664525u + 1013904223u;
-    return float(state >> 8) / float(1u << 24);
-  };
+  Uniform next{777};
   for (size_t i = 0; i < h.size(); ++i) p.insert(p.end(), {next(), 0.5f * next(), 0.25f * next()});
   for (int i = 0; i < 5000; ++i) q.insert(q.end(), {1.1f * next() - 0.05f, 0.6f * next() - 0.05f, 0.25f * next()});
   AttentionFieldOptions o;

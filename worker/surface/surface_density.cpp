@@ -81,16 +81,17 @@ std::vector<char> faces_outwards(const Mesh& mesh) {
   // parts are so many that a box per part per thread costs more).
   using Box = std::pair<Vec3d, Vec3d>;
   const Box empty{Vec3d{HUGE_VAL, HUGE_VAL, HUGE_VAL}, Vec3d{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}};
+  auto include = [](Box& b, const Vec3d& lo, const Vec3d& hi) {
+    b.first = {std::min(b.first.x, lo.x), std::min(b.first.y, lo.y), std::min(b.first.z, lo.z)};
+    b.second = {std::max(b.second.x, hi.x), std::max(b.second.y, hi.y), std::max(b.second.z, hi.z)};
+  };
   auto grow = [&](std::vector<Box>& box, size_t lo, size_t hi) {
-    for (size_t f = lo; f < hi; ++f) {
-      if (part[f] == UINT32_MAX) continue;
-      Box& b = box[part[f]];
-      for (int c = 0; c < 3; ++c) {
-        const Vec3d x = load3d(p, mesh.indices[3 * f + c]);
-        b.first = {std::min(b.first.x, x.x), std::min(b.first.y, x.y), std::min(b.first.z, x.z)};
-        b.second = {std::max(b.second.x, x.x), std::max(b.second.y, x.y), std::max(b.second.z, x.z)};
-      }
-    }
+    for (size_t f = lo; f < hi; ++f)
+      if (part[f] != UINT32_MAX)
+        for (int c = 0; c < 3; ++c) {
+          const Vec3d x = load3d(p, mesh.indices[3 * f + c]);
+          include(box[part[f]], x, x);
+        }
   };
   std::vector<Box> box(parts, empty);
   if (parts <= 1024) {
@@ -98,13 +99,7 @@ std::vector<char> faces_outwards(const Mesh& mesh) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 16384),
                       [&](const tbb::blocked_range<size_t>& r) { grow(local.local(), r.begin(), r.end()); });
     for (const std::vector<Box>& mine : local)
-      for (size_t k = 0; k < parts; ++k) {
-        Box& b = box[k];
-        b.first = {std::min(b.first.x, mine[k].first.x), std::min(b.first.y, mine[k].first.y),
-                   std::min(b.first.z, mine[k].first.z)};
-        b.second = {std::max(b.second.x, mine[k].second.x), std::max(b.second.y, mine[k].second.y),
-                    std::max(b.second.z, mine[k].second.z)};
-      }
+      for (size_t k = 0; k < parts; ++k) include(box[k], mine[k].first, mine[k].second);
   } else {
     grow(box, 0, nf);
   }
