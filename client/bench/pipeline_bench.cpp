@@ -11,6 +11,7 @@
 // N million triangles. Prints Markdown tables; progress goes to stderr.
 //   vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]
 //                  [--cvt-sweeps auto|rounds|slabs] [--render-prep auto|host]
+//                  [--render-readback auto|host]
 //                  [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...
 // --density: the jobs' density mode (uniform, curvature, perception, paper;
 // the pipeline's default when not given).
@@ -61,6 +62,7 @@ struct Args {
   std::optional<vpr::DensityMode> density;
   vpr::CvtSweeps cvt_sweeps = vpr::CvtSweeps::kAuto;
   bool render_prep_on_gpu = true;
+  bool render_interop = true;
   std::vector<std::pair<std::string, uint32_t>> inputs;
 };
 
@@ -105,6 +107,7 @@ vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::
   if (args.density) options.density = *args.density;
   options.cvt_sweeps = args.cvt_sweeps;
   options.render_prep_on_gpu = args.render_prep_on_gpu;
+  options.render_interop = args.render_interop;
   options.on_stage = [&](const vpr::StageTiming& s) { cpu_lap(s.name); };
   auto result = vpr::run_pipeline(*mesh, options);
   if (!result.ok()) return result.status();
@@ -163,6 +166,10 @@ int parse_args(int argc, char** argv, Args* a) {
       const std::string m = next();
       if (m != "auto" && m != "host") return 2;
       a->render_prep_on_gpu = m == "auto";
+    } else if (s == "--render-readback") {
+      const std::string m = next();
+      if (m != "auto" && m != "host") return 2;
+      a->render_interop = m == "auto";
     } else if (s == "--peers") {
       a->peers = next();
     } else if (s == "--concurrency") {
@@ -217,6 +224,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]\n"
                  "                      [--cvt-sweeps auto|rounds|slabs] [--render-prep auto|host]\n"
+                 "                      [--render-readback auto|host]\n"
                  "                      [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
     return 2;
   }

@@ -74,7 +74,7 @@ TEST_F(PipelineGpu, EveryTwinRunsOnTheGpuAndAgreesWithTheCpu) {
   }
   const StageTiming* render = find_stage(*gpu, "render");
   ASSERT_NE(render, nullptr);
-  EXPECT_EQ(render->note, "geometry prepared on the GPU");
+  EXPECT_EQ(render->note, "geometry prepared on the GPU; pixels handed to CUDA");
   // Identical feature pixels give identical saliency point counts.
   EXPECT_EQ(gpu->saliency_points, cpu->saliency_points);
   // Particles agree within 1e-4 of the diagonal (stage tests); the mesher may
@@ -188,10 +188,39 @@ TEST_F(PipelineGpu, AStageThatFailsOnTheGpuRerunsOnTheCpu) {
   ASSERT_NE(render, nullptr);
   EXPECT_NE(render->note.find("RESOURCE_EXHAUSTED"), std::string::npos) << render->note;
   EXPECT_NE(render->note.find("geometry prepared on the host"), std::string::npos) << render->note;
+  EXPECT_NE(render->note.find("pixels read back"), std::string::npos) << render->note;
   EXPECT_EQ(fallback->saliency_points, cpu->saliency_points);
   EXPECT_EQ(fallback->mesh.positions, cpu->mesh.positions);
   EXPECT_EQ(fallback->mesh.indices, cpu->mesh.indices);
   EXPECT_EQ(tiny.used.load(), 0u) << "every device buffer must be released";
+}
+
+// The snapshots handed from GL to CUDA (render/device_snapshots.h) or read
+// back to the host and uploaded again: the same job, bit for bit, with the
+// attention field (which reads the depth images for its visibility cue) and
+// with the paper's field, and with debug output (which copies them back).
+TEST_F(PipelineGpu, SnapshotsHandedToCudaGiveTheReadBacksResult) {
+  for (DensityMode density : {DensityMode::kPerception, DensityMode::kPaper}) {
+    SCOPED_TRACE(density == DensityMode::kPaper ? "paper" : "perception");
+    PipelineOptions options;
+    options.target_vertices = kTarget;
+    options.device = DevicePolicy::kCuda;
+    options.density = density;
+    options.render_interop = false;
+    auto read_back = run_pipeline(input_, options);
+    ASSERT_TRUE(read_back.ok()) << read_back.status().to_string();
+    options.render_interop = true;
+    options.debug_dir = ::testing::TempDir() + "/interop_debug";
+    auto handed = run_pipeline(input_, options);
+    ASSERT_TRUE(handed.ok()) << handed.status().to_string();
+    EXPECT_EQ(find_stage(*handed, "render")->note, "geometry prepared on the GPU; pixels handed to CUDA");
+    EXPECT_EQ(find_stage(*read_back, "render")->note, "geometry prepared on the GPU");
+    EXPECT_EQ(find_stage(*handed, "image_saliency")->device, "cuda");
+    EXPECT_EQ(handed->saliency_points, read_back->saliency_points);
+    EXPECT_EQ(handed->input_importance, read_back->input_importance);
+    EXPECT_EQ(handed->mesh.positions, read_back->mesh.positions);
+    EXPECT_EQ(handed->mesh.indices, read_back->mesh.indices);
+  }
 }
 
 // Four jobs on one GPU at once, each on its own stream, give the same result

@@ -10,6 +10,7 @@
 #include <string>
 #include <thread>
 
+#include "render/gl_pixels.h"
 #include "render/views.h"
 #include "test_meshes.h"
 
@@ -310,6 +311,101 @@ TEST(BackendsCompared, EglAndOsmesaAgree) {
   }
   std::printf("%s vs %s: +x coverage %zu vs %zu px\n", (*osmesa)->description().c_str(), (*egl)->description().c_str(),
               covered(a[0]), covered(b[0]));
+}
+
+// A sink on the host: copies the pixel buffers back (PixelBuffers::read) and
+// builds each view's snapshot by gl_pixels.h's rule, as the GPU's sink does on
+// the device. fail: take() refuses.
+class HostSink final : public SnapshotSink {
+ public:
+  explicit HostSink(bool fail = false) : fail_(fail) {}
+  Status take(const PixelBuffers& p) override {
+    ++calls;
+    if (fail_) return unavailable("this sink refuses " + std::to_string(p.width.size()) + " views");
+    if (!p.read) return unavailable("the GL library cannot read buffers back");
+    for (size_t v = 0; v < p.width.size(); ++v) {
+      const int w = p.width[v], h = p.height[v];
+      const size_t n = size_t(w) * size_t(h);
+      std::vector<uint8_t> rgba(4 * n);
+      std::vector<float> depth(n);
+      p.read(p.rgba, 4 * p.offset[v], rgba.size(), rgba.data());
+      p.read(p.depth, 4 * p.offset[v], depth.size() * sizeof(float), depth.data());
+      Snapshot s;
+      s.gray = GrayImage(w, h, 7);  // not the rule's values, so each pixel must be written
+      s.depth = FloatImage(w, h, 7.0f);
+      s.coverage = Mask(w, h, 7);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          gl::snapshot_pixel(rgba.data(), depth.data(), w, h, x, y, s.gray.pixels.data(), s.depth.pixels.data(),
+                             s.coverage.pixels.data());
+      taken.push_back(std::move(s));
+    }
+    return Status::Ok();
+  }
+
+  std::vector<Snapshot> taken;
+  int calls = 0;
+
+ private:
+  bool fail_;
+};
+
+// The GPU job's path (render/device_snapshots.h) reads every view into pixel
+// buffers instead of host memory: the same pictures, on every backend here,
+// with views of two sizes in one render.
+TEST_F(Backends, PixelBuffersHandOverTheSamePicturesAsTheReadBack) {
+  Mesh far = testing::flipped_soup(testing::icosphere(3));
+  for (size_t i = 0; i < far.positions.size(); ++i) far.positions[i] += i % 3 == 0 ? 1e5f : 0.0f;
+  Mesh boxes = box({-1, -1, -1}, {0, 1, 1});
+  append_box({0, -1, -1}, {1, 0.5, 0.5}, &boxes);
+  for (const Mesh& mesh : {testing::icosphere(4), boxes, far}) {
+    std::vector<View> views = views_of(mesh, 160);
+    const std::vector<View> large = views_of(mesh, 224);
+    views.insert(views.end(), large.begin(), large.begin() + 2);
+    for (auto& r : backends_) {
+      SCOPED_TRACE(r->description());
+      std::vector<Snapshot> read_back, left = {Snapshot{}};
+      ASSERT_TRUE(r->render(mesh, views, &read_back).ok());
+      HostSink sink;
+      const Status s = r->render(mesh, views, &left, {}, &sink);
+      ASSERT_TRUE(s.ok()) << s.to_string();
+      EXPECT_TRUE(left.empty());  // the views went to the sink
+      EXPECT_EQ(sink.calls, 1);
+      ASSERT_EQ(sink.taken.size(), views.size());
+      for (size_t v = 0; v < views.size(); ++v) {
+        EXPECT_EQ(sink.taken[v].gray.width, views[v].width);
+        EXPECT_GT(covered(sink.taken[v]), 1000u) << views[v].name;
+        EXPECT_EQ(sink.taken[v].gray.pixels, read_back[v].gray.pixels) << views[v].name;
+        EXPECT_EQ(sink.taken[v].depth.pixels, read_back[v].depth.pixels) << views[v].name;
+        EXPECT_EQ(sink.taken[v].coverage.pixels, read_back[v].coverage.pixels) << views[v].name;
+      }
+    }
+  }
+}
+
+TEST_F(Backends, ASinkThatFailsFailsTheRenderWithItsError) {
+  const Mesh sphere = testing::icosphere(2);
+  const std::vector<View> views = views_of(sphere, 100);
+  for (auto& r : backends_) {
+    SCOPED_TRACE(r->description());
+    HostSink sink(/*fail=*/true);
+    std::vector<Snapshot> out;
+    const Status s = r->render(sphere, views, &out, {}, &sink);
+    EXPECT_EQ(s.code(), StatusCode::kUnavailable);
+    EXPECT_NE(s.message().find("refuses 6 views"), std::string::npos) << s.to_string();
+    EXPECT_EQ(sink.calls, 1);
+    EXPECT_TRUE(out.empty());
+    // The renderer is still good for the next job.
+    std::vector<Snapshot> again;
+    ASSERT_TRUE(r->render(sphere, views, &again).ok());
+    EXPECT_GT(covered(again[0]), 500u);
+    // Bad indices are refused before anything reaches the sink.
+    Mesh broken = sphere;
+    broken.indices[4] = uint32_t(broken.vertex_count()) + 3;
+    HostSink unused;
+    EXPECT_EQ(r->render(broken, views, &out, {}, &unused).code(), StatusCode::kInvalidArgument);
+    EXPECT_EQ(unused.calls, 0);
+  }
 }
 
 TEST_F(Backends, RendersRepeatablyAtAnySizeAndRejectsBadIndices) {

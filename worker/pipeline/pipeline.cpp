@@ -407,6 +407,24 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
 
   front->renderer = options.shared_renderer;
   std::vector<Snapshot> snapshots;
+  // On a GPU job the drawn geometry (smooth corner normals, shared corners)
+  // is built on the device: the host's part was what stretched the render
+  // six-fold with eight jobs at once. The twin runs inside this job's
+  // render() call, so it may record its own status here: the stage's note
+  // says where the geometry was built, as every other twin's stage does.
+  DrawnGeometryTwin geometry_twin;
+  bool twin_ran = false;
+  Status twin_status = Status::Ok();
+#ifdef VPR_HAVE_CUDA
+  if (device.on_gpu() && options.render_prep_on_gpu)
+    geometry_twin = [&](const Mesh& m, bool indexed, DrawnGeometry* g) {
+      twin_ran = true;
+      twin_status = cuda::drawn_geometry(m, indexed, g, device.context());
+      return twin_status;
+    };
+  // The GPU job's snapshots, when GL hands them to CUDA (else empty).
+  std::unique_ptr<cuda::DeviceSnapshots> on_device;
+#endif
   {
     stage.begin("render");
     const auto start = Clock::now();
@@ -417,31 +435,47 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
       front->renderer = front->own_renderer.get();
     }
     result.renderer = front->renderer->description();
-    // On a GPU job the drawn geometry (smooth corner normals, shared
-    // corners) is built on the device: the host's part was what stretched
-    // the render six-fold with eight jobs at once.
-    // The twin runs inside this job's render() call, so it may record its
-    // own status here: the stage's note says where the geometry was built,
-    // as every other twin's stage does.
-    DrawnGeometryTwin geometry_twin;
-    bool twin_ran = false;
-    Status twin_status = Status::Ok();
+    std::string pixels_note;
+    Status status = Status::Ok();
 #ifdef VPR_HAVE_CUDA
-    if (device.on_gpu() && options.render_prep_on_gpu)
-      geometry_twin = [&](const Mesh& m, bool indexed, DrawnGeometry* g) {
-        twin_ran = true;
-        twin_status = cuda::drawn_geometry(m, indexed, g, device.context());
-        return twin_status;
-      };
+    if (device.on_gpu() && options.render_interop) {
+      on_device = std::make_unique<cuda::DeviceSnapshots>(views, device.context());
+      status = on_device->allocate();
+      if (status.ok()) status = front->renderer->render(input, views, &snapshots, geometry_twin, on_device.get());
+      pixels_note = "pixels handed to CUDA";
+      // Bad input fails the same way read back; anything else (the GL
+      // context on another GPU, a driver without interop) reads back.
+      if (!status.ok() && status.code() != StatusCode::kInvalidArgument) {
+        pixels_note = "pixels read back (" + status.to_string() + ")";
+        on_device.reset();
+        status = front->renderer->render(input, views, &snapshots, geometry_twin);
+      }
+    } else {
+      status = front->renderer->render(input, views, &snapshots, geometry_twin);
+    }
+#else
+    status = front->renderer->render(input, views, &snapshots, geometry_twin);
 #endif
-    Status status = front->renderer->render(input, views, &snapshots, geometry_twin);
-    const std::string prep_note = !twin_ran            ? ""
-                                  : twin_status.ok() ? "geometry prepared on the GPU"
-                                                     : "GPU failed (" + twin_status.to_string() +
-                                                           "), geometry prepared on the host";
-    stage.record_ms("render", ms_since(start), result.renderer, prep_note);
+    const std::string prep_note = !twin_ran ? ""
+                                  : twin_status.ok()
+                                      ? "geometry prepared on the GPU"
+                                      : "GPU failed (" + twin_status.to_string() + "), geometry prepared on the host";
+    const std::string note =
+        prep_note.empty() || pixels_note.empty() ? prep_note + pixels_note : prep_note + "; " + pixels_note;
+    stage.record_ms("render", ms_since(start), result.renderer, note);
     if (!status.ok()) return Status(status.code(), "render: " + status.message());
   }
+  // The snapshots on the host, for a CPU twin or debug output: copied from
+  // the device when they stayed there (rendered again if that fails).
+  auto host_snapshots = [&]() -> Status {
+#ifdef VPR_HAVE_CUDA
+    if (on_device && snapshots.size() != views.size()) {
+      if (on_device->download(&snapshots).ok()) return Status::Ok();
+      return front->renderer->render(input, views, &snapshots, geometry_twin);
+    }
+#endif
+    return Status::Ok();
+  };
 
   // Stages 2-3: image-space saliency per view, then feature pixels to 3D
   // saliency points. On the GPU one fused pass per view keeps the images on
@@ -460,8 +494,10 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
     const auto start = Clock::now();
     Status status = Status::Ok();
     for (size_t v = 0; v < views.size() && status.ok(); ++v)
-      status = cuda::view_saliency_points(snapshots[v], views[v], options.image, &view_points[v],
-                                          want_images ? &features[v] : nullptr, device.context());
+      status = on_device ? cuda::view_saliency_points(on_device->snapshot(v), views[v], options.image, &view_points[v],
+                                                      want_images ? &features[v] : nullptr, device.context())
+                         : cuda::view_saliency_points(snapshots[v], views[v], options.image, &view_points[v],
+                                                      want_images ? &features[v] : nullptr, device.context());
     if (status.ok()) {
       stage.record("image_saliency", start, "cuda", "");
       stage.record_ms("unproject", 0, "cuda", "fused into image_saliency on the GPU");
@@ -473,6 +509,7 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   }
 #endif
   if (!fused) {
+    VPR_RETURN_IF_ERROR(host_snapshots());
     const std::unique_ptr<JobDevice> cpu_only = std::move(JobDevice::select(DevicePolicy::kCpu, 0, nullptr)).value();
     const JobDevice& twin_device = fused_failure.empty() ? device : *cpu_only;
     VPR_RETURN_IF_ERROR(stage.run_twin(
@@ -507,6 +544,7 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
       std::error_code ec;
       std::filesystem::create_directories(options.debug_dir, ec);
       if (ec) return invalid_argument("cannot create debug directory " + options.debug_dir + ": " + ec.message());
+      VPR_RETURN_IF_ERROR(host_snapshots());
       for (size_t v = 0; v < views.size(); ++v) {
         std::vector<float> model_points = view_points[v];  // in the input's units, to overlay on it
         to_model_units(front->norm, &model_points);
@@ -519,10 +557,19 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   std::vector<float> visibility;
   if (options.density != DensityMode::kPaper) {
     VPR_RETURN_IF_ERROR(stage.run_twin("visibility", device, [&](const ExecContext& c) -> Status {
+#ifdef VPR_HAVE_CUDA
+      if (c.device == Device::kCuda && on_device && on_device->depths())
+        return cuda::view_visibility_on_device(input.positions.data(), input.vertex_count(), views, on_device->depths(),
+                                               options.visibility, &visibility, c);
+#endif
+      VPR_RETURN_IF_ERROR(host_snapshots());
       return VPR_TWIN(c, view_visibility)(input.positions.data(), input.vertex_count(), views, snapshots,
                                           options.visibility, &visibility, c);
     }));
   }
+#ifdef VPR_HAVE_CUDA
+  on_device.reset();
+#endif
   snapshots.clear();
   features.clear();
   view_points.clear();

@@ -153,6 +153,11 @@ struct PipelineOptions {
   // corners) is built on the device (render/drawn_geometry.h); false builds
   // it on the host (the same images; for benchmarks, `--render-prep host`).
   bool render_prep_on_gpu = true;
+  // On a GPU job the snapshots stay on the device: GL reads them into pixel
+  // buffers that CUDA maps (render/device_snapshots.h), and stages 2-3 and the
+  // visibility cue start there. false reads them back to the host and uploads
+  // them again (the same images; for benchmarks, `--render-readback host`).
+  bool render_interop = true;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
   // Called as each stage ends, e.g. to stream progress; the StageTiming is

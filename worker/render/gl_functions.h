@@ -71,6 +71,9 @@ struct Functions {
   PFNGLBINDBUFFERPROC BindBuffer = nullptr;
   PFNGLBUFFERDATAPROC BufferData = nullptr;
   PFNGLBUFFERSUBDATAPROC BufferSubData = nullptr;
+  // Reads a buffer back (GL 1.5): a pixel buffer's bytes for a host sink
+  // (PixelBuffers::read). Optional.
+  PFNGLGETBUFFERSUBDATAPROC GetBufferSubData = nullptr;
 
   bool has_framebuffer_objects() const;
   bool has_vertex_buffers() const { return GenBuffers && DeleteBuffers && BindBuffer && BufferData && BufferSubData; }
@@ -109,7 +112,11 @@ struct RenderBreakdown {
 // geometry's GPU twin (Renderer::render), or empty for the host's.
 Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
                     RenderBreakdown* breakdown = nullptr, Renderer::DrawPath path = Renderer::DrawPath::kAuto,
-                    const DrawnGeometryTwin& twin = {});
+                    const DrawnGeometryTwin& twin = {}, SnapshotSink* sink = nullptr);
+
+// The host's read-back of one view: glReadPixels' rows (bottom first) into a
+// snapshot (row 0 at the top), gl_pixels.h's rule per pixel.
+void snapshot_from_rows(const uint8_t* rgba, const float* depth, int width, int height, Snapshot* out);
 
 // Whether the current context rasterizes on the CPU (Mesa's llvmpipe,
 // softpipe, swrast): render_views then draws every corner unindexed, which

@@ -16,16 +16,17 @@
 
 #include <algorithm>
 #include <array>
-#include <numeric>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <numeric>
 #include <string>
 
+#include "core/vec3.h"
 #include "render/drawn_geometry.h"
 #include "render/gl_functions.h"
-#include "core/vec3.h"
+#include "render/gl_pixels.h"
 
 namespace vpr {
 
@@ -143,6 +144,7 @@ Status load_functions(ProcLoader loader, Functions* gl) {
                        load_one(loader, "glBindBuffer", &gl->BindBuffer) &
                        load_one(loader, "glBufferData", &gl->BufferData) &
                        load_one(loader, "glBufferSubData", &gl->BufferSubData);
+  load_one(loader, "glGetBufferSubData", &gl->GetBufferSubData);
   if (!buffers) gl->GenBuffers = nullptr;
 
   // Framebuffer objects: core names first, then the EXT extension's.
@@ -242,8 +244,21 @@ std::string RenderBreakdown::to_string() const {
   return prep_note.empty() ? std::string(buf) : std::string(buf) + "; " + prep_note;
 }
 
+void snapshot_from_rows(const uint8_t* rgba, const float* depth, int width, int height, Snapshot* out) {
+  out->gray = GrayImage(width, height, 0);
+  out->depth = FloatImage(width, height, 1.0f);
+  out->coverage = Mask(width, height, 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, height, 16), [&](const tbb::blocked_range<int>& rows) {
+    for (int y = rows.begin(); y < rows.end(); ++y)
+      for (int x = 0; x < width; ++x)
+        snapshot_pixel(rgba, depth, width, height, x, y, out->gray.pixels.data(), out->depth.pixels.data(),
+                       out->coverage.pixels.data());
+  });
+}
+
 Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
-                    RenderBreakdown* breakdown, Renderer::DrawPath path, const DrawnGeometryTwin& twin) {
+                    RenderBreakdown* breakdown, Renderer::DrawPath path, const DrawnGeometryTwin& twin,
+                    SnapshotSink* sink) {
   assert(out != nullptr);
   RenderBreakdown local;
   RenderBreakdown& bd = breakdown ? *breakdown : local;
@@ -259,6 +274,8 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
   out->clear();
   for (const View& v : views)
     if (v.width <= 0 || v.height <= 0) return invalid_argument("view " + v.name + " has an empty image");
+  if (sink && !gl.has_vertex_buffers())
+    return unavailable("the GL context has no buffer objects, which pixels handed over on the GPU need");
   // The drawable faces' corners, with smooth normals, shared on a GPU's
   // renderer (drawn_geometry.h); on a GPU job the twin builds them there.
   const bool indexed = path == Renderer::DrawPath::kAuto ? !software_rasterizer(gl)
@@ -328,10 +345,41 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
       gl.DeleteBuffers(3, buffers);
     }
   };
+  // With a sink, every view's pixels are read into two pixel-pack buffers
+  // (a copy on the GPU), each view at its own offset, and handed over once.
+  GLuint pixel_buffers[2] = {0, 0};
+  PixelBuffers handed;
+  if (sink) {
+    size_t pixels = 0;
+    for (const View& v : views) {
+      handed.offset.push_back(pixels);
+      handed.width.push_back(v.width);
+      handed.height.push_back(v.height);
+      pixels += size_t(v.width) * size_t(v.height);
+    }
+    gl.GenBuffers(2, pixel_buffers);
+    for (GLuint b : pixel_buffers) {
+      gl.BindBuffer(GL_PIXEL_PACK_BUFFER, b);
+      gl.BufferData(GL_PIXEL_PACK_BUFFER, GLsizeiptr(4 * pixels), nullptr, GL_STREAM_READ);
+    }
+    gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    handed.rgba = pixel_buffers[0];
+    handed.depth = pixel_buffers[1];
+    if (gl.GetBufferSubData)
+      handed.read = [&gl](unsigned buffer, size_t from, size_t bytes, void* to) {
+        gl.BindBuffer(GL_PIXEL_PACK_BUFFER, buffer);
+        gl.GetBufferSubData(GL_PIXEL_PACK_BUFFER, GLintptr(from), GLsizeiptr(bytes), to);
+        gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+      };
+  }
+  auto release_all = [&] {
+    if (pixel_buffers[0]) gl.DeleteBuffers(2, pixel_buffers);
+    release();
+  };
 
   std::vector<uint8_t> rgba;
   std::vector<float> depth;
-  out->reserve(views.size());
+  out->reserve(sink ? 0 : views.size());
   for (const View& view : views) {
     const Vec3d l = view_light(view);
     const Vec3 light{float(l.x), float(l.y), float(l.z)};
@@ -366,40 +414,46 @@ Status render_views(const Functions& gl, const Mesh& mesh, const std::vector<Vie
     }
 
     const int w = view.width, h = view.height;
-    rgba.resize(size_t(w) * h * 4);
-    depth.resize(size_t(w) * h);
-    gl.Finish();  // the draw's own time, apart from the readback's
+    // The draw's own time, apart from the readback's. A sink's copies wait for
+    // the draws on the GPU instead: its hand-over's time holds theirs.
+    if (!sink) gl.Finish();
     lap(&bd.draw);
-    gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
-    gl.ReadPixels(0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
-    lap(&bd.readback);
+    if (sink) {
+      const size_t at = 4 * handed.offset[size_t(&view - views.data())];  // bytes
+      gl.BindBuffer(GL_PIXEL_PACK_BUFFER, pixel_buffers[0]);
+      gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, reinterpret_cast<void*>(at));
+      gl.BindBuffer(GL_PIXEL_PACK_BUFFER, pixel_buffers[1]);
+      gl.ReadPixels(0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, reinterpret_cast<void*>(at));
+      gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    } else {
+      rgba.resize(size_t(w) * h * 4);
+      depth.resize(size_t(w) * h);
+      gl.ReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+      gl.ReadPixels(0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
+    }
     const GLenum error = gl.GetError();
     if (error != GL_NO_ERROR) {
-      release();
+      release_all();
       out->clear();
       return internal_error("GL error " + hex(error) + " while rendering view " + view.name);
     }
-
+    if (sink) {
+      lap(&bd.readback);
+      continue;
+    }
+    lap(&bd.readback);
     Snapshot s;
-    s.gray = GrayImage(w, h, 0);
-    s.depth = FloatImage(w, h, 1.0f);
-    s.coverage = Mask(w, h, 0);
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
-      for (int y = rows.begin(); y < rows.end(); ++y) {
-        const size_t src_row = size_t(h - 1 - y) * w;  // GL rows count from the bottom
-        for (int x = 0; x < w; ++x) {
-          const float z = depth[src_row + x];
-          if (!(z < 1.0f)) continue;
-          s.depth.at(x, y) = z;
-          s.coverage.at(x, y) = 1;
-          s.gray.at(x, y) = rgba[4 * (src_row + x)];
-        }
-      }
-    });
+    snapshot_from_rows(rgba.data(), depth.data(), w, h, &s);
     out->push_back(std::move(s));
     lap(&bd.convert);
   }
-  release();
+  if (sink) {
+    const Status taken = sink->take(handed);
+    lap(&bd.readback);
+    release_all();
+    return taken;
+  }
+  release_all();
   return Status::Ok();
 }
 

@@ -3,6 +3,8 @@
 // device alike) or OSMesa.
 #pragma once
 
+#include <cstddef>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,6 +27,31 @@ struct Snapshot {
   Mask coverage;     // 1 where a surface was drawn
 };
 
+// Every view's pixels as GL left them, in two pixel-pack buffer objects of
+// the renderer's context: glReadPixels into a buffer object copies on the GPU,
+// so a GPU job's snapshots need not cross to the host (device_snapshots.h).
+// View v's pixels start at pixel offset[v] of both buffers: width[v] x
+// height[v], bottom row first.
+struct PixelBuffers {
+  unsigned rgba = 0;   // GL buffer name: RGBA8, 4 bytes a pixel
+  unsigned depth = 0;  // GL buffer name: float window depth, 4 bytes a pixel
+  std::vector<size_t> offset;
+  std::vector<int> width, height;
+  // Copies `bytes` from byte `from` of one of the two buffers to host memory
+  // (glGetBufferSubData); empty where the GL library lacks it.
+  std::function<void(unsigned buffer, size_t from, size_t bytes, void* to)> read;
+};
+
+// Where render() hands the views' pixels instead of reading them back to the
+// host. Called with the renderer's context current on the calling thread.
+class SnapshotSink {
+ public:
+  virtual ~SnapshotSink() = default;
+  // Once, after every view is drawn. The buffers are deleted after the call:
+  // copy what is needed before returning. An error fails the render with it.
+  virtual Status take(const PixelBuffers& pixels) = 0;
+};
+
 // Holds one GL context. render() may be called from any thread; calls on one
 // renderer are serialized (the context is current only during a call).
 class Renderer {
@@ -41,9 +68,11 @@ class Renderer {
   // degrees toward the image's upper left. Degenerate faces draw nothing.
   // Out-of-range indices are kInvalidArgument. twin: the GPU twin of the
   // drawn geometry (drawn_geometry.h) on a GPU job, else empty (the host
-  // builds it); the same images either way.
+  // builds it); the same images either way. sink: when given, each view's
+  // pixels go to it (SnapshotSink) and *out is left empty; UNAVAILABLE where
+  // the context has no buffer objects.
   virtual Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
-                        const DrawnGeometryTwin& twin = {}) = 0;
+                        const DrawnGeometryTwin& twin = {}, SnapshotSink* sink = nullptr) = 0;
   // Where the last render() spent its time, for benchmarks:
   // "prep P ms, upload U ms, draw D ms, readback R ms, convert C ms, bind B ms"
   // (prep "(on the GPU)" when the twin built the geometry).

@@ -115,7 +115,7 @@ class EglRenderer final : public Renderer {
   // One render at a time per renderer: the context is made current on the
   // calling thread for the duration of the call and released afterwards.
   Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
-                const DrawnGeometryTwin& twin = {}) override {
+                const DrawnGeometryTwin& twin = {}, SnapshotSink* sink = nullptr) override {
     std::lock_guard<std::mutex> lock(mutex_);
     using Clock = std::chrono::steady_clock;
     auto ms_since = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
@@ -130,7 +130,7 @@ class EglRenderer final : public Renderer {
       s = ensure_pbuffer(width, height);
     }
     const double bind = ms_since(start);
-    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_, draw_path_, twin);
+    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_, draw_path_, twin, sink);
     const auto released = Clock::now();
     release();
     breakdown_.bind = bind + ms_since(released);
@@ -220,7 +220,7 @@ StatusOr<std::unique_ptr<Renderer>> create_egl_renderer() {
     EGLDeviceEXT devices[16];
     EGLint count = 0;
     if (!query_devices(16, devices, &count)) count = 0;
-    // Hardware devices first; Mesa marks its software rasterizer device.
+        // Hardware devices first; Mesa marks its software rasterizer device.
     std::vector<std::pair<bool, int>> order;  // (is software, index)
     for (EGLint i = 0; i < count; ++i)
       order.push_back({has_extension(query_device_string(devices[i], EGL_EXTENSIONS), "EGL_MESA_device_software"), i});

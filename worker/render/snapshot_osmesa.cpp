@@ -44,12 +44,12 @@ class OsmesaRenderer final : public Renderer {
   // One render at a time per renderer; the context is current on the calling
   // thread only for the duration of the call.
   Status render(const Mesh& mesh, const std::vector<View>& views, std::vector<Snapshot>* out,
-                const DrawnGeometryTwin& twin = {}) override {
+                const DrawnGeometryTwin& twin = {}, SnapshotSink* sink = nullptr) override {
     std::lock_guard<std::mutex> lock(mutex_);
     int width = 0, height = 0;
     max_view_size(views, &width, &height);
     Status s = make_current(width, height);
-    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_, draw_path_, twin);
+    if (s.ok()) s = render_views(gl_, mesh, views, out, &breakdown_, draw_path_, twin, sink);
     release();
     return s;
   }

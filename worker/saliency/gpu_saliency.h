@@ -10,24 +10,13 @@
 #include <vector>
 
 #include "core/exec_context.h"
-#include "saliency/image_saliency.h"
-#include "render/snapshot.h"
 #include "core/status.h"
+#include "render/device_snapshots.h"
+#include "render/snapshot.h"
 #include "render/views.h"
+#include "saliency/image_saliency.h"
 
 namespace vpr::cuda {
-
-// One rendered view already in device memory (e.g. handed over by GL-CUDA
-// interop): width x height, row-major, row 0 at the top, as in Snapshot. The
-// pointers are not owned; whatever wrote them must be ordered before the call
-// on ctx's stream (or finished).
-struct DeviceSnapshot {
-  int width = 0;
-  int height = 0;
-  const uint8_t* gray = nullptr;      // shaded intensity, background 0
-  const uint8_t* coverage = nullptr;  // 1 where a surface was drawn
-  const float* depth = nullptr;       // window-space depth in [0, 1]; 1 where no surface was drawn
-};
 
 // Appends 3 floats (model space) per saliency point of the view to *points.
 // debug: null downloads nothing but the points; otherwise it receives every

@@ -11,8 +11,7 @@
 
 namespace vpr {
 
-Status check_visibility_args(const std::vector<View>& views, const std::vector<Snapshot>& snapshots,
-                             const VisibilityOptions& options) {
+Status check_visibility_options(const VisibilityOptions& options) {
   if (!(options.depth_tolerance >= 0.0f && options.depth_tolerance <= 1.0f))
     return invalid_argument("visibility: depth_tolerance = " + std::to_string(options.depth_tolerance) +
                             ", it must lie in [0, 1]");
@@ -20,6 +19,12 @@ Status check_visibility_args(const std::vector<View>& views, const std::vector<S
     return invalid_argument("visibility: view_bias = " + std::to_string(options.view_bias) + ", it must lie in [0, 1]");
   if (options.view_bias > 0.0f && !(dot(options.view_direction, options.view_direction) > 0.0f))
     return invalid_argument("visibility: view_direction is zero or not finite");
+  return Status::Ok();
+}
+
+Status check_visibility_args(const std::vector<View>& views, const std::vector<Snapshot>& snapshots,
+                             const VisibilityOptions& options) {
+  VPR_RETURN_IF_ERROR(check_visibility_options(options));
   if (views.size() != snapshots.size())
     return invalid_argument("visibility: " + std::to_string(views.size()) + " views but " +
                             std::to_string(snapshots.size()) + " snapshots");

@@ -38,6 +38,8 @@ struct VisibilityOptions {
 // The views' weights (VisibilityOptions::view_bias), shared by both twins.
 std::vector<double> view_weights(const std::vector<View>& views, const VisibilityOptions& options);
 
+// The options alone: tolerance and bias in [0, 1], a direction when biased.
+Status check_visibility_options(const VisibilityOptions& options);
 // views and snapshots: one snapshot per view, each snapshot's depth the view's
 // size. INVALID_ARGUMENT otherwise, or for a tolerance outside [0, 1].
 Status check_visibility_args(const std::vector<View>& views, const std::vector<Snapshot>& snapshots,
@@ -85,6 +87,12 @@ namespace cuda {
 Status view_visibility(const float* vertices, size_t vertex_count, const std::vector<View>& views,
                        const std::vector<Snapshot>& snapshots, const VisibilityOptions& options,
                        std::vector<float>* visibility, const ExecContext& ctx);
+// The same from depth images already on the device (device_snapshots.h:
+// DeviceSnapshots::depths): views.size() images back to back on ctx's
+// stream, each views[0].width x views[0].height, every view that size.
+Status view_visibility_on_device(const float* vertices, size_t vertex_count, const std::vector<View>& views,
+                                 const float* device_depths, const VisibilityOptions& options,
+                                 std::vector<float>* visibility, const ExecContext& ctx);
 
 }  // namespace cuda
 }  // namespace vpr
