@@ -127,7 +127,7 @@ int job_process_main(const JobProcessFds& fds) {
   // loops split by this job's share of them (core/running_jobs.h).
   if (fds.host_jobs >= 0) count_host_jobs(HostJobCount::attach(fds.host_jobs));
   init_cuda(ctx);
-  auto renderer = create_renderer(ctx.renderer_kind);
+  auto renderer = create_renderer(ctx.renderer_kind, renderer_gpu(ctx));
   if (!renderer.ok()) {
     write_frame(fd, FrameType::kInitFailed, renderer.status().message());
     return 1;

@@ -296,6 +296,10 @@ void init_cuda(const WorkerContext& ctx) {
 #endif
 }
 
+int renderer_gpu(const WorkerContext& ctx) {
+  return ctx.device_policy != DevicePolicy::kCpu && ctx.device.rfind("cuda:", 0) == 0 ? ctx.cuda_device : -1;
+}
+
 void run_job(JobQueue& queue, ClaimedJob job, const WorkerContext& ctx) {
   const std::string id = job.id;
   try {
@@ -387,7 +391,7 @@ void WorkerPool::worker_main(int index) {
     }
   } else {
     init_cuda(ctx);
-    auto created = create_renderer(options_.renderer);
+    auto created = create_renderer(options_.renderer, renderer_gpu(ctx));
     if (created.ok()) {
       renderer = std::move(created).value();
       ctx.renderer = renderer.get();

@@ -68,6 +68,8 @@ void run_job(JobQueue& queue, ClaimedJob job, const WorkerContext& ctx);
 
 // Makes ctx's CUDA device current in this process (when ctx names one).
 void init_cuda(const WorkerContext& ctx);
+// The CUDA device ctx's renderer should draw on (create_renderer), -1 for none.
+int renderer_gpu(const WorkerContext& ctx);
 
 struct WorkerPoolOptions {
   int workers = 1;

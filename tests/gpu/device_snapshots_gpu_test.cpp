@@ -137,5 +137,44 @@ TEST_F(DeviceSnapshotsGpu, ATinyBudgetIsRefusedAndTheRendererStaysUsable) {
   for (size_t v = 0; v < mixed.size(); ++v) EXPECT_EQ(copied[v].depth.pixels, read_back[v].depth.pixels) << v;
 }
 
+// On a host with several GPUs a job on the second renders there and hands its
+// snapshots over; a renderer on the first GPU cannot, and says which devices
+// are whose (the pipeline then reads back). Skipped with one GPU.
+TEST_F(DeviceSnapshotsGpu, AJobOnTheSecondGpuRendersAndHandsOverThere) {
+  std::string why;
+  if (cuda_devices(&why).size() < 2) GTEST_SKIP() << "one GPU here";
+  ASSERT_TRUE(init_cuda_device(1).ok());
+  {
+    auto stream = CudaStream::create(1);
+    ASSERT_TRUE(stream.ok()) << stream.status().to_string();
+    const ExecContext second{Device::kCuda, stream->get(), nullptr};
+    const Mesh sphere = testing::icosphere(3);
+    ViewOptions view_options;
+    view_options.resolution = 128;
+    auto views = make_views(sphere, view_options);
+    ASSERT_TRUE(views.ok());
+    auto on_second = create_renderer(RendererKind::kEgl, 1);
+    ASSERT_TRUE(on_second.ok()) << on_second.status().to_string();
+    cuda::DeviceSnapshots handed(*views, second);
+    std::vector<Snapshot> out, read_back;
+    const Status s = (*on_second)->render(sphere, *views, &out, {}, &handed);
+    EXPECT_TRUE(s.ok()) << s.to_string();
+    EXPECT_EQ(handed.size(), views->size());
+    auto on_first = create_renderer(RendererKind::kEgl, 0);
+    ASSERT_TRUE(on_first.ok()) << on_first.status().to_string();
+    cuda::DeviceSnapshots refused(*views, second);
+    const Status wrong = (*on_first)->render(sphere, *views, &out, {}, &refused);
+    EXPECT_EQ(wrong.code(), StatusCode::kUnavailable) << wrong.to_string();
+    EXPECT_NE(wrong.message().find("renders on CUDA device 0, the job runs on device 1"), std::string::npos)
+        << wrong.to_string();
+    ASSERT_TRUE((*on_first)->render(sphere, *views, &read_back).ok());
+    std::vector<Snapshot> copied;
+    ASSERT_TRUE(handed.download(&copied).ok());
+    ASSERT_EQ(copied.size(), read_back.size());
+    for (size_t v = 0; v < copied.size(); ++v) EXPECT_EQ(copied[v].depth.pixels, read_back[v].depth.pixels) << v;
+  }  // the second GPU's buffers and stream go while it is current
+  ASSERT_TRUE(init_cuda_device(0).ok());
+}
+
 }  // namespace
 }  // namespace vpr

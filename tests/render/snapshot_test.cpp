@@ -116,6 +116,16 @@ TEST_F(Backends, ParseKindsAndDescribeThemselves) {
   auto any = create_renderer(RendererKind::kAuto);
   ASSERT_TRUE(any.ok()) << any.status().to_string();
   EXPECT_EQ((*any)->description(), backends_.back()->description());
+  // A CUDA device that no EGL device is (none here, or a ninth GPU) leaves
+  // the usual order: the same renderer, the same pictures.
+  auto for_gpu = create_renderer(RendererKind::kAuto, 8);
+  ASSERT_TRUE(for_gpu.ok()) << for_gpu.status().to_string();
+  EXPECT_EQ((*for_gpu)->description(), (*any)->description());
+  const Mesh cube = box({-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5});
+  std::vector<Snapshot> a, b;
+  ASSERT_TRUE((*any)->render(cube, views_of(cube, 64), &a).ok());
+  ASSERT_TRUE((*for_gpu)->render(cube, views_of(cube, 64), &b).ok());
+  EXPECT_EQ(a[4].depth.pixels, b[4].depth.pixels);
 }
 
 TEST_F(Backends, CubeFromPlusZCoversTheProjectedSquareAtTheExpectedDepth) {

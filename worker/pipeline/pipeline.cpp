@@ -429,7 +429,7 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
     stage.begin("render");
     const auto start = Clock::now();
     if (!front->renderer) {
-      auto created = create_renderer(options.renderer);
+      auto created = create_renderer(options.renderer, device.on_gpu() ? options.cuda_device : -1);
       if (!created.ok()) return Status(created.status().code(), "render: " + created.status().message());
       front->own_renderer = std::move(created).value();
       front->renderer = front->own_renderer.get();

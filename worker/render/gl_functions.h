@@ -128,7 +128,8 @@ void max_view_size(const std::vector<View>& views, int* width, int* height);
 
 // Backend factories. Each returns kUnavailable with the reason when its
 // platform cannot give a working context on this machine.
-StatusOr<std::unique_ptr<Renderer>> create_egl_renderer();
+// cuda_device: create_renderer's.
+StatusOr<std::unique_ptr<Renderer>> create_egl_renderer(int cuda_device = -1);
 StatusOr<std::unique_ptr<Renderer>> create_osmesa_renderer();
 
 }  // namespace vpr::gl

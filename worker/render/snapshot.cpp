@@ -37,10 +37,10 @@ StatusOr<RendererKind> parse_renderer_kind(const std::string& name) {
   return invalid_argument("unknown renderer '" + name + "'; expected one of: auto, egl, osmesa");
 }
 
-StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind) {
-  if (kind == RendererKind::kEgl) return gl::create_egl_renderer();
+StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind, int cuda_device) {
+  if (kind == RendererKind::kEgl) return gl::create_egl_renderer(cuda_device);
   if (kind == RendererKind::kOsmesa) return gl::create_osmesa_renderer();
-  auto egl = gl::create_egl_renderer();
+  auto egl = gl::create_egl_renderer(cuda_device);
   if (egl.ok()) return egl;
   auto osmesa = gl::create_osmesa_renderer();
   if (osmesa.ok()) return osmesa;
@@ -90,7 +90,7 @@ Vec3d view_light(const View& view) {
 }  // namespace
 
 #ifndef VPR_HAVE_EGL
-StatusOr<std::unique_ptr<Renderer>> create_egl_renderer() {
+StatusOr<std::unique_ptr<Renderer>> create_egl_renderer(int) {
   return unavailable("this build has no EGL support (VPR_EGL=OFF)");
 }
 #endif

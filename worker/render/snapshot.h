@@ -86,7 +86,11 @@ class Renderer {
 };
 
 // kAuto tries EGL first and falls back to OSMesa. The error names every
-// backend tried and why it failed.
-StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind);
+// backend tried and why it failed. cuda_device >= 0: EGL renders on that CUDA
+// device's GPU where the driver says which EGL device it is
+// (EGL_NV_device_cuda), so that on a host with several GPUs a job renders on
+// its own GPU and its snapshots can stay there (device_snapshots.h); the
+// first hardware device otherwise, and always when cuda_device < 0.
+StatusOr<std::unique_ptr<Renderer>> create_renderer(RendererKind kind, int cuda_device = -1);
 
 }  // namespace vpr

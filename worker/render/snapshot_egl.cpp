@@ -1,6 +1,7 @@
 // Stage 1 snapshots through EGL: a GPU's own driver (NVIDIA) or Mesa's
 // software device, with no window system. Displays are tried in this order:
-// every EGL device that is not a software rasterizer, the software devices,
+// the EGL device of the job's CUDA device when asked for and known, every
+// other EGL device that is not a software rasterizer, the software devices,
 // Mesa's surfaceless platform, the default display.
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
@@ -10,6 +11,8 @@
 #include <cstdio>
 #include <mutex>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include "render/gl_functions.h"
 #include "render/snapshot.h"
@@ -190,7 +193,7 @@ StatusOr<std::unique_ptr<Renderer>> try_display(EGLDisplay display, const std::s
 
 }  // namespace
 
-StatusOr<std::unique_ptr<Renderer>> create_egl_renderer() {
+StatusOr<std::unique_ptr<Renderer>> create_egl_renderer(int cuda_device) {
   std::string errors;
   auto note = [&](const std::string& e) { errors += (errors.empty() ? "" : "; ") + e; };
   auto attempt = [&](EGLDisplay display, const std::string& label) -> std::unique_ptr<Renderer> {
@@ -214,19 +217,33 @@ StatusOr<std::unique_ptr<Renderer>> create_egl_renderer() {
   auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
   auto query_device_string =
       reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(eglGetProcAddress("eglQueryDeviceStringEXT"));
+  auto query_device_attrib =
+      reinterpret_cast<PFNEGLQUERYDEVICEATTRIBEXTPROC>(eglGetProcAddress("eglQueryDeviceAttribEXT"));
+  // The CUDA device an EGL device is (EGL_NV_device_cuda), or -1.
+  auto cuda_device_of = [&](EGLDeviceEXT device) -> int {
+    EGLAttrib id = -1;
+    if (!query_device_attrib || !has_extension(query_device_string(device, EGL_EXTENSIONS), "EGL_NV_device_cuda") ||
+        !query_device_attrib(device, EGL_CUDA_DEVICE_NV, &id))
+      return -1;
+    return int(id);
+  };
 
   if (has_extension(client_extensions, "EGL_EXT_platform_device") && get_platform_display && query_devices &&
       query_device_string) {
     EGLDeviceEXT devices[16];
     EGLint count = 0;
     if (!query_devices(16, devices, &count)) count = 0;
-        // Hardware devices first; Mesa marks its software rasterizer device.
-    std::vector<std::pair<bool, int>> order;  // (is software, index)
+    // The job's GPU first, then hardware devices; Mesa marks its software
+    // rasterizer device.
+    std::vector<std::tuple<bool, bool, int>> order;  // (not the job's GPU, is software, index)
     for (EGLint i = 0; i < count; ++i)
-      order.push_back({has_extension(query_device_string(devices[i], EGL_EXTENSIONS), "EGL_MESA_device_software"), i});
+      order.push_back({cuda_device < 0 || cuda_device_of(devices[i]) != cuda_device,
+                       has_extension(query_device_string(devices[i], EGL_EXTENSIONS), "EGL_MESA_device_software"), i});
     std::stable_sort(order.begin(), order.end());
-    for (const auto& [software, i] : order) {
+    for (const auto& [other, software, i] : order) {
       std::string label = "device " + std::to_string(i);
+      if (const int cuda = cuda_device_of(devices[i]); cuda >= 0)
+        label += " (CUDA device " + std::to_string(cuda) + ")";
       if (has_extension(query_device_string(devices[i], EGL_EXTENSIONS), "EGL_EXT_device_drm")) {
         const char* file = query_device_string(devices[i], EGL_DRM_DEVICE_FILE_EXT);
         if (file) label += std::string(" (") + file + ")";
