@@ -57,8 +57,9 @@ class SnapshotSink {
 class Renderer {
  public:
   virtual ~Renderer() = default;
-  // "<backend>: <GL_RENDERER> (<GL_VENDOR>)", what actually renders, e.g.
-  // "egl: NVIDIA H100 80GB HBM3/PCIe/SSE2 (NVIDIA Corporation)",
+  // "<backend>: <GL_RENDERER> (<GL_VENDOR>)", what actually renders, and for
+  // an EGL device that says which CUDA device it is, ", CUDA device N", e.g.
+  // "egl: NVIDIA H100 80GB HBM3/PCIe/SSE2 (NVIDIA Corporation), CUDA device 0",
   // "osmesa: llvmpipe (LLVM 15.0.6, 256 bits) (Mesa/X.org)".
   virtual std::string description() const = 0;
   // Renders every view of the mesh; out receives one Snapshot per view.

@@ -58,7 +58,9 @@ class EglRenderer final : public Renderer {
 
   // Creates the context and its render target; on failure the renderer is
   // unusable and the status says why.
-  Status init(const std::string& label) {
+  // cuda_device: the CUDA device the display is (EGL_NV_device_cuda), or -1;
+  // the description names it.
+  Status init(const std::string& label, int cuda_device) {
     if (!eglBindAPI(EGL_OPENGL_API))
       return unavailable(label + ": desktop OpenGL is not offered (" + egl_error() + ")");
     const char* display_extensions = eglQueryString(display_, EGL_EXTENSIONS);
@@ -104,6 +106,7 @@ class EglRenderer final : public Renderer {
       if (!s.ok()) return unavailable(label + ": " + fbo_error + "; pbuffer: " + s.message());
     }
     description_ = "egl: " + renderer_string(gl_);
+    if (cuda_device >= 0) description_ += ", CUDA device " + std::to_string(cuda_device);
     eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     return Status::Ok();
   }
@@ -184,9 +187,9 @@ class EglRenderer final : public Renderer {
 };
 
 // `display` is initialized by the caller.
-StatusOr<std::unique_ptr<Renderer>> try_display(EGLDisplay display, const std::string& label) {
+StatusOr<std::unique_ptr<Renderer>> try_display(EGLDisplay display, const std::string& label, int cuda_device) {
   auto renderer = std::make_unique<EglRenderer>(display);
-  Status s = renderer->init(label);
+  Status s = renderer->init(label, cuda_device);
   if (!s.ok()) return s;
   return std::unique_ptr<Renderer>(std::move(renderer));
 }
@@ -196,7 +199,7 @@ StatusOr<std::unique_ptr<Renderer>> try_display(EGLDisplay display, const std::s
 StatusOr<std::unique_ptr<Renderer>> create_egl_renderer(int cuda_device) {
   std::string errors;
   auto note = [&](const std::string& e) { errors += (errors.empty() ? "" : "; ") + e; };
-  auto attempt = [&](EGLDisplay display, const std::string& label) -> std::unique_ptr<Renderer> {
+  auto attempt = [&](EGLDisplay display, const std::string& label, int cuda = -1) -> std::unique_ptr<Renderer> {
     if (display == EGL_NO_DISPLAY) {
       note(label + ": no display (" + egl_error() + ")");
       return nullptr;
@@ -205,7 +208,7 @@ StatusOr<std::unique_ptr<Renderer>> create_egl_renderer(int cuda_device) {
       note(label + ": eglInitialize failed (" + egl_error() + ")");
       return nullptr;
     }
-    auto r = try_display(display, label);
+    auto r = try_display(display, label, cuda);
     if (r.ok()) return std::move(r).value();
     note(r.status().message());
     return nullptr;
@@ -249,7 +252,9 @@ StatusOr<std::unique_ptr<Renderer>> create_egl_renderer(int cuda_device) {
         if (file) label += std::string(" (") + file + ")";
       }
       if (software) label += " (software)";
-      if (auto r = attempt(get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr), label)) return r;
+      if (auto r = attempt(get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr), label,
+                           cuda_device_of(devices[i])))
+        return r;
     }
     if (count == 0) note("EGL lists no devices");
   } else {
