@@ -436,26 +436,21 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
     }
     result.renderer = front->renderer->description();
     std::string pixels_note;
+    bool read_back = true;
     Status status = Status::Ok();
 #ifdef VPR_HAVE_CUDA
     if (device.on_gpu() && options.render_interop) {
       on_device = std::make_unique<cuda::DeviceSnapshots>(views, device.context());
       status = on_device->allocate();
       if (status.ok()) status = front->renderer->render(input, views, &snapshots, geometry_twin, on_device.get());
-      pixels_note = "pixels handed to CUDA";
       // Bad input fails the same way read back; anything else (the GL
       // context on another GPU, a driver without interop) reads back.
-      if (!status.ok() && status.code() != StatusCode::kInvalidArgument) {
-        pixels_note = "pixels read back (" + status.to_string() + ")";
-        on_device.reset();
-        status = front->renderer->render(input, views, &snapshots, geometry_twin);
-      }
-    } else {
-      status = front->renderer->render(input, views, &snapshots, geometry_twin);
+      read_back = !status.ok() && status.code() != StatusCode::kInvalidArgument;
+      pixels_note = read_back ? "pixels read back (" + status.to_string() + ")" : "pixels handed to CUDA";
+      if (read_back) on_device.reset();
     }
-#else
-    status = front->renderer->render(input, views, &snapshots, geometry_twin);
 #endif
+    if (read_back) status = front->renderer->render(input, views, &snapshots, geometry_twin);
     const std::string prep_note = !twin_ran ? ""
                                   : twin_status.ok()
                                       ? "geometry prepared on the GPU"

@@ -123,8 +123,8 @@ Status DeviceSnapshots::take(const PixelBuffers& pixels) {
   size_t rgba_bytes = 0, depth_bytes = 0;
   err = cudaGraphicsResourceGetMappedPointer(&rgba, &rgba_bytes, reg.resource[0]);
   if (err == cudaSuccess) err = cudaGraphicsResourceGetMappedPointer(&depth, &depth_bytes, reg.resource[1]);
-  const size_t need = 4 * m.pixels;
-  for (size_t v = 0; v < m.width.size() && err == cudaSuccess && rgba_bytes >= need && depth_bytes >= need; ++v) {
+  const bool fits = rgba_bytes >= 4 * m.pixels && depth_bytes >= 4 * m.pixels;
+  for (size_t v = 0; v < m.width.size() && err == cudaSuccess && fits; ++v) {
     const int w = m.width[v], h = m.height[v];
     const size_t o = m.offset[v];
     const dim3 block(32, 8), grid(unsigned((w + 31) / 32), unsigned((h + 7) / 8));
@@ -136,7 +136,7 @@ Status DeviceSnapshots::take(const PixelBuffers& pixels) {
   // Unmapping orders the kernels before GL's next use of the buffers.
   const cudaError_t unmapped = cudaGraphicsUnmapResources(2, reg.resource, stream);
   if (err != cudaSuccess) return interop_failed(err, "reading the mapped pixel buffers");
-  if (rgba_bytes < need || depth_bytes < need)
+  if (!fits)
     return internal_error("GL-CUDA interop: pixel buffers of " + std::to_string(rgba_bytes) + " and " +
                           std::to_string(depth_bytes) + " bytes for " + std::to_string(m.pixels) + " pixels");
   if (unmapped != cudaSuccess) return interop_failed(unmapped, "cudaGraphicsUnmapResources");
