@@ -223,6 +223,63 @@ TEST_F(PipelineGpu, SnapshotsHandedToCudaGiveTheReadBacksResult) {
   }
 }
 
+// A shape none of the above is, and no parameter was set on: an open box (no
+// bottom: a boundary loop), with a fin 1/60 of its width thick on its lid
+// (a thin part, creases), 10^4 units from the origin, as a soup with every
+// other face turned over.
+Mesh open_box_with_fin() {
+  Mesh m;
+  // An n x n grid of quads over the parallelogram o + s u + t v, s, t in [0, 1].
+  auto grid = [&m](Vec3d o, Vec3d u, Vec3d v, int n) {
+    const uint32_t base = uint32_t(m.vertex_count());
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        const Vec3d p = o + u * (double(i) / n) + v * (double(j) / n) + Vec3d{1e4, 1e4, 0};
+        m.positions.insert(m.positions.end(), {float(p.x), float(p.y), float(p.z)});
+      }
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const uint32_t a = base + j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+        m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
+      }
+  };
+  const Vec3d x{2, 0, 0}, y{0, 2, 0}, z{0, 0, 2};
+  grid({0, 0, 2}, x, y, 12);  // lid
+  grid({0, 0, 0}, x, z, 12);  // four sides, no bottom
+  grid({0, 2, 0}, z, x, 12);
+  grid({0, 0, 0}, z, y, 12);
+  grid({2, 0, 0}, y, z, 12);
+  const Vec3d fx{0, 0.0333, 0}, fy{1.2, 0, 0}, fz{0, 0, 0.8};  // the fin: 1.2 x 0.0333 x 0.8 on the lid
+  const Vec3d f0{0.4, 0.98, 2};
+  grid(f0, fy, fz, 8);
+  grid(f0 + fx, fz, fy, 8);
+  grid(f0, fz, fx, 2);
+  grid(f0 + fy, fx, fz, 2);
+  grid(f0 + fz, fx, fy, 8);
+  for (size_t f = 0; f < m.indices.size() / 3; f += 2) std::swap(m.indices[3 * f + 1], m.indices[3 * f + 2]);
+  return m;
+}
+
+TEST_F(PipelineGpu, SnapshotsHandedToCudaGiveTheReadBacksResultOnAnOpenBoxWithAFin) {
+  const Mesh shape = open_box_with_fin();
+  PipelineOptions options;
+  options.target_vertices = 1500;
+  options.device = DevicePolicy::kCuda;
+  options.render_interop = false;
+  auto read_back = run_pipeline(shape, options);
+  ASSERT_TRUE(read_back.ok()) << read_back.status().to_string();
+  options.render_interop = true;
+  auto handed = run_pipeline(shape, options);
+  ASSERT_TRUE(handed.ok()) << handed.status().to_string();
+  EXPECT_NE(find_stage(*handed, "render")->note.find("pixels handed to CUDA"), std::string::npos)
+      << find_stage(*handed, "render")->note;
+  EXPECT_GT(handed->saliency_points, 0u);
+  EXPECT_EQ(handed->saliency_points, read_back->saliency_points);
+  EXPECT_EQ(handed->input_importance, read_back->input_importance);
+  EXPECT_EQ(handed->mesh.positions, read_back->mesh.positions);
+  EXPECT_EQ(handed->mesh.indices, read_back->mesh.indices);
+}
+
 // Four jobs on one GPU at once, each on its own stream, give the same result
 // as one job alone.
 TEST_F(PipelineGpu, ConcurrentJobsOnOneGpuGiveTheSingleJobResult) {
