@@ -6,7 +6,9 @@
 // (with or without the planes, per-cell sums or the one loop) as without
 // them. Cells whose points fall within a thousandth of a spacing of each
 // other: found (the in-order pass runs only when some pair is that close)
-// and moved apart.
+// and moved apart. The projections onto the cells' faces made by a projector
+// over the flat lists a device is given (flat_projector.h): the host's bits,
+// and the host's mesh when the projector fails at any step.
 #include "surface/cluster_mesh.h"
 
 #include <gtest/gtest.h>
@@ -15,12 +17,14 @@
 #include <cmath>
 #include <map>
 #include <string>
-#include <utility>
 #include <tuple>
+#include <utility>
 #include <vector>
 
+#include "flat_projector.h"
 #include "surface/mesh_edges.h"
 #include "surface/surface_cvt.h"
+#include "test_meshes.h"
 
 namespace vpr {
 namespace {
@@ -206,6 +210,95 @@ TEST(ClusterMeshTest, CellsAtOnePointAreMovedApartAndOnlyThen) {
     ASSERT_TRUE(mesh_clusters(flat, edges, ring_and_disk(flat, 8.5, 8.25, 12), 6, &out, nullptr, &stats, options).ok());
     EXPECT_EQ(stats.points_separated, 0u);
     EXPECT_GT(out.face_count(), 0u);
+  }
+}
+
+// A surface and its CVT cells, for the projection tests.
+struct Cells {
+  Mesh surface;
+  MeshEdges edges;
+  std::vector<uint32_t> label;
+  uint32_t count = 0;
+};
+
+Cells cells_of(Mesh surface, uint32_t target) {
+  Cells c;
+  c.surface = std::move(surface);
+  c.edges = mesh_edges(c.surface);
+  CvtStats cvt;
+  CvtOptions options;
+  options.anisotropy = 0.04 * std::sqrt(3.0);
+  EXPECT_TRUE(surface_cvt(c.surface, c.edges, vertex_areas(c.surface), target, options, &c.label, &cvt).ok());
+  c.count = cvt.clusters;
+  return c;
+}
+
+// An open box (a boundary loop, creases, corners) and a torus 10^4 units
+// from the origin, where floats have few bits to spare.
+std::vector<Cells> projection_cases() {
+  Mesh far = testing::torus(1.0, 0.35, 48, 96);
+  for (size_t i = 0; i < far.positions.size(); i += 3) far.positions[i] += 1e4f;
+  std::vector<Cells> cases;
+  cases.push_back(cells_of(open_box(24), 300));
+  cases.push_back(cells_of(std::move(far), 400));
+  return cases;
+}
+
+TEST(ClusterMeshTest, ProjectionsOverFlatListsGiveTheHostsBits) {
+  for (const Cells& c : projection_cases()) {
+    ASSERT_GT(c.count, 250u);
+    Mesh reference, unrelaxed;
+    std::vector<uint32_t> reference_cells;
+    ClusterMeshStats host_stats;
+    ASSERT_TRUE(mesh_clusters(c.surface, c.edges, c.label, c.count, &reference, &reference_cells, &host_stats).ok());
+    EXPECT_FALSE(host_stats.projected_on_device);
+    EXPECT_TRUE(host_stats.projection_fallback.empty());
+    ClusterMeshOptions bare;
+    bare.relax_rounds = 0;
+    ASSERT_TRUE(mesh_clusters(c.surface, c.edges, c.label, c.count, &unrelaxed, nullptr, nullptr, bare).ok());
+    EXPECT_NE(unrelaxed.positions, reference.positions) << "the relaxation moves vertices";
+
+    testing::ProjectorCalls calls;
+    ClusterMeshOptions options;
+    options.device_projector = [&](const CellFaceLists& lists) -> StatusOr<std::unique_ptr<DualProjector>> {
+      EXPECT_EQ(lists.start->size(), size_t(c.count) + 1);
+      return std::unique_ptr<DualProjector>(std::make_unique<testing::FlatProjector>(lists, -1, &calls));
+    };
+    Mesh out;
+    std::vector<uint32_t> cells;
+    ClusterMeshStats stats;
+    ASSERT_TRUE(mesh_clusters(c.surface, c.edges, c.label, c.count, &out, &cells, &stats, options).ok());
+    EXPECT_EQ(calls.places, 1);
+    EXPECT_EQ(calls.relaxes, options.relax_rounds);
+    EXPECT_TRUE(stats.projected_on_device);
+    EXPECT_EQ(out.positions, reference.positions);
+    EXPECT_EQ(out.indices, reference.indices);
+    EXPECT_EQ(cells, reference_cells);
+  }
+}
+
+TEST(ClusterMeshTest, AProjectorThatFailsLeavesTheHostTheSameMesh) {
+  const Cells c = projection_cases().front();
+  Mesh reference;
+  ASSERT_TRUE(mesh_clusters(c.surface, c.edges, c.label, c.count, &reference, nullptr, nullptr).ok());
+  // Refused at once, at the placing, and at the second relaxation round.
+  for (int fail_at : {-2, 0, 2}) {
+    testing::ProjectorCalls calls;
+    ClusterMeshOptions options;
+    options.device_projector = [&](const CellFaceLists& lists) -> StatusOr<std::unique_ptr<DualProjector>> {
+      if (fail_at == -2) return resource_exhausted("no device (test)");
+      return std::unique_ptr<DualProjector>(std::make_unique<testing::FlatProjector>(lists, fail_at, &calls));
+    };
+    Mesh out;
+    ClusterMeshStats stats;
+    ASSERT_TRUE(mesh_clusters(c.surface, c.edges, c.label, c.count, &out, nullptr, &stats, options).ok());
+    EXPECT_FALSE(stats.projected_on_device) << fail_at;
+    EXPECT_NE(stats.projection_fallback.find(fail_at == -2 ? "no device" : "refused"), std::string::npos)
+        << stats.projection_fallback;
+    EXPECT_EQ(calls.places, fail_at == 2 ? 1 : 0);
+    EXPECT_EQ(calls.relaxes, fail_at == 2 ? 1 : 0);
+    EXPECT_EQ(out.positions, reference.positions) << fail_at;
+    EXPECT_EQ(out.indices, reference.indices) << fail_at;
   }
 }
 

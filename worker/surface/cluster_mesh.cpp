@@ -1,9 +1,11 @@
 #include "surface/cluster_mesh.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
+
 #include <Eigen/Dense>
-
-#include <cmath>
-
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -15,16 +17,12 @@
 #include <set>
 #include <unordered_map>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
-#include <tbb/task_arena.h>
-
 #include "core/collect_in_order.h"
 #include "core/mesh_parts.h"
 #include "core/vec3.h"
 #include "core/vertex_ranges.h"
 #include "surface/bounding_sphere.h"
+#include "surface/dual_projection.h"
 #include "surface/edge_flips.h"
 
 namespace vpr {
@@ -37,67 +35,13 @@ Vector3d eig(const Vec3d& v) {
   return {v.x, v.y, v.z};
 }
 
-// The closest point of triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
-Vector3d closest_on_triangle(const Vector3d& p, const Vector3d& a, const Vector3d& b, const Vector3d& c) {
-  const Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
-  const Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
 // The faces of the surface that touch a cell (in face order), with their
-// bounding spheres.
+// bounding spheres (made only where the host projects).
 struct CellFaces {
   std::vector<uint32_t> face;
   std::vector<std::array<float, 4>> sphere;
+  FaceList list() const { return {face.data(), sphere.data(), uint32_t(face.size())}; }
 };
-
-// The nearest point to x on the faces of the given lists, in list order with
-// the first of equally near faces kept (what a plain loop over every face
-// gives); *best and *best_d are left alone when no face is nearer than
-// *best_d. The face with the nearest sphere is measured first; its distance
-// bounds the rest, and a face whose sphere is farther (with a relative margin
-// of 1e-6 for rounding) is skipped.
-void nearest_on_faces(const Vector3d& x, std::initializer_list<const CellFaces*> lists, const Mesh& surface,
-                      Vector3d* best, double* best_d) {
-  auto closest = [&](uint32_t f) {
-    const uint32_t* t = &surface.indices[3 * f];
-    return closest_on_triangle(x, eig(load3d(surface.positions.data(), t[0])),
-                               eig(load3d(surface.positions.data(), t[1])), eig(load3d(surface.positions.data(), t[2])));
-  };
-  double bound = INFINITY;
-  {
-    uint32_t first = UINT32_MAX;
-    double first_gap = INFINITY;
-    for (const CellFaces* faces : lists)
-      for (size_t i = 0; i < faces->face.size(); ++i) {
-        const double gap = sphere_gap2(x, faces->sphere[i]);
-        if (gap < first_gap) first_gap = gap, first = faces->face[i];
-      }
-    if (first == UINT32_MAX) return;
-    bound = (closest(first) - x).squaredNorm();
-  }
-  for (const CellFaces* faces : lists)
-    for (size_t i = 0; i < faces->face.size(); ++i) {
-      if (sphere_gap2(x, faces->sphere[i]) > std::min(bound, *best_d) * (1 + 1e-6)) continue;
-      const Vector3d q = closest(faces->face[i]);
-      const double d = (q - x).squaredNorm();
-      if (d < *best_d) *best_d = d, *best = q;
-    }
-}
 
 struct Quadric {
   Matrix3d a = Matrix3d::Zero();
@@ -372,26 +316,15 @@ bool any_within(const std::vector<float>& points, const std::vector<double>& wei
   return found;
 }
 
-// What a vertex may do in the tangential relaxation below.
-enum class Freedom : char { kFree, kAlongLine, kHeld };
-
-// Tangential relaxation (Botsch and Kobbelt 2004, "A remeshing approach to
-// multiresolution modeling", Section 4): every free vertex moves in its
-// tangent plane, by half the way, towards the centroid of its one-ring's
-// triangle centroids; a crease vertex moves along its crease line towards
-// the midpoint of its two crease neighbours; corners and boundary vertices
-// stay. Each moved vertex goes back onto the input surface (the closest
-// point of the faces of its own cell and the neighbouring cell it moves towards). The centroids
-// are not weighted by area: a CVT's cells have areas about 1 / density, so
-// area weights would pull vertices towards sparse regions and undo the
-// density; equal weights keep a smoothly varying spacing. All vertices move
-// at once (one order on any thread count); a move that turns one of its
+// One round of tangential relaxation (relax_move in dual_projection.h):
+// every vertex moves at once (one order on any thread count), on the device
+// when there is one; then, on the host, a move that turns one of its
 // triangles by more than a right angle is undone.
-void relax_tangentially(Mesh* mesh, const std::vector<uint32_t>& source, const std::vector<Freedom>& freedom,
-                        const std::vector<Vector3d>& line, const Mesh& surface,
-                        const std::vector<CellFaces>& cell_faces) {
+Status relax_tangentially(Mesh* mesh, const std::vector<uint32_t>& source, const std::vector<Freedom>& freedom,
+                          const std::vector<Vec3d>& line, const Mesh& surface, const std::vector<CellFaces>& cell_faces,
+                          DualProjector* device) {
   const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
-  auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
+  auto p = [&](uint32_t v) { return load3d(mesh->positions.data(), v); };
   std::vector<uint32_t> face_start(nv + 1, 0), faces_of(3 * nf);
   for (uint32_t v : mesh->indices) ++face_start[v + 1];
   for (size_t v = 0; v < nv; ++v) face_start[v + 1] += face_start[v];
@@ -400,76 +333,44 @@ void relax_tangentially(Mesh* mesh, const std::vector<uint32_t>& source, const s
     for (size_t f = 0; f < nf; ++f)
       for (int c = 0; c < 3; ++c) faces_of[fill[mesh->indices[3 * f + c]]++] = uint32_t(f);
   }
-  std::vector<Vector3d> start(nv), moved(nv);
-  for (uint32_t v = 0; v < nv; ++v) start[v] = moved[v] = p(v);
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 256), [&](const tbb::blocked_range<uint32_t>& range) {
-    for (uint32_t v = range.begin(); v != range.end(); ++v) {
-      if (freedom[v] == Freedom::kHeld || face_start[v] == face_start[v + 1]) continue;
-      Vector3d normal = Vector3d::Zero(), centre = Vector3d::Zero();
-      std::vector<uint32_t> ring;
-      for (uint32_t j = face_start[v]; j < face_start[v + 1]; ++j) {
-        const uint32_t* t = &mesh->indices[3 * faces_of[j]];
-        normal += (start[t[1]] - start[t[0]]).cross(start[t[2]] - start[t[0]]);
-        centre += (start[t[0]] + start[t[1]] + start[t[2]]) / 3;
-        for (int k = 0; k < 3; ++k)
-          if (t[k] != v) ring.push_back(t[k]);
-      }
-      std::sort(ring.begin(), ring.end());
-      ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
-      Vector3d step;
-      if (freedom[v] == Freedom::kFree) {
-        if (!(normal.norm() > 0)) continue;
-        normal.normalize();
-        const Vector3d d = centre / double(face_start[v + 1] - face_start[v]) - start[v];
-        step = 0.5 * (d - normal * normal.dot(d));
-      } else {
-        // The crease neighbours: ring vertices on a crease or corner, along the line.
-        const Vector3d& dir = line[source[v]];
-        std::vector<uint32_t> along;
-        for (uint32_t w : ring) {
-          if (freedom[w] == Freedom::kFree) continue;
-          const Vector3d e = start[w] - start[v];
-          if (std::abs(e.normalized().dot(dir)) > 0.9) along.push_back(w);
-        }
-        if (along.size() != 2) continue;
-        const Vector3d mid = 0.5 * (start[along[0]] + start[along[1]]);
-        step = 0.5 * dir * dir.dot(mid - start[v]);
-      }
-      const Vector3d x = start[v] + step;
-      // Back onto the input: the faces of v's cell and of the cell of the
-      // ring vertex nearest to where v goes (it moves at most half way to
-      // its ring's centre, so into one neighbouring cell at most).
-      uint32_t toward = ring.front();
-      for (uint32_t w : ring)
-        if ((start[w] - x).squaredNorm() < (start[toward] - x).squaredNorm()) toward = w;
-      double best_d = INFINITY;
-      Vector3d best = start[v];
-      if (source[toward] != source[v])
-        nearest_on_faces(x, {&cell_faces[source[v]], &cell_faces[source[toward]]}, surface, &best, &best_d);
-      else
-        nearest_on_faces(x, {&cell_faces[source[v]]}, surface, &best, &best_d);
-      moved[v] = best;
-    }
-  });
-  auto put = [&](uint32_t v, const Vector3d& x) {
-    for (int k = 0; k < 3; ++k) mesh->positions[3 * v + k] = float(x[k]);
+  std::vector<Vec3d> start(nv), moved;
+  for (uint32_t v = 0; v < nv; ++v) start[v] = p(v);
+  if (device) {
+    VPR_RETURN_IF_ERROR(device->relax(RelaxMesh{mesh, &face_start, &faces_of, &freedom, &source, &line}, &moved));
+    if (moved.size() != nv) return internal_error("relaxation: the device moved another mesh");
+  } else {
+    moved.resize(nv);
+    const RelaxView view{start.data(),    mesh->indices.data(),     face_start.data(),
+                         faces_of.data(), freedom.data(),           source.data(),
+                         line.data(),     surface.positions.data(), surface.indices.data()};
+    auto lists = [&](uint32_t cell) { return cell_faces[cell].list(); };
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 256), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t v = r.begin(); v != r.end(); ++v) moved[v] = relax_move(view, lists, v);
+    });
+  }
+  auto same = [](const Vec3d& a, const Vec3d& b) { return a.x == b.x && a.y == b.y && a.z == b.z; };
+  auto put = [&](uint32_t v, const Vec3d& x) {
+    mesh->positions[3 * v] = float(x.x);
+    mesh->positions[3 * v + 1] = float(x.y);
+    mesh->positions[3 * v + 2] = float(x.z);
   };
   for (uint32_t v = 0; v < nv; ++v) put(v, moved[v]);
   for (bool changed = true; changed;) {
     changed = false;
     for (size_t f = 0; f < nf; ++f) {
       const uint32_t* t = &mesh->indices[3 * f];
-      const Vector3d before = (start[t[1]] - start[t[0]]).cross(start[t[2]] - start[t[0]]);
-      const Vector3d after = (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0]));
-      if (!(before.squaredNorm() > 0) || after.dot(before) > 0) continue;
+      const Vec3d before = cross(start[t[1]] - start[t[0]], start[t[2]] - start[t[0]]);
+      const Vec3d after = cross(p(t[1]) - p(t[0]), p(t[2]) - p(t[0]));
+      if (!(norm2(before) > 0) || dot(after, before) > 0) continue;
       for (int k = 0; k < 3; ++k)
-        if (moved[t[k]] != start[t[k]]) {
+        if (!same(moved[t[k]], start[t[k]])) {
           moved[t[k]] = start[t[k]];
           put(t[k], start[t[k]]);
           changed = true;
         }
     }
   }
+  return Status::Ok();
 }
 
 }  // namespace
@@ -651,19 +552,50 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
         for (uint32_t f : cell_faces[cell].face) add_face(f, eig(normal[f]), face_area[f], cell);
     });
   }
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 64), [&](const tbb::blocked_range<uint32_t>& r) {
-    for (uint32_t cell = r.begin(); cell != r.end(); ++cell) {
-      CellFaces& cf = cell_faces[cell];
-      cf.sphere.resize(cf.face.size());
-      for (size_t i = 0; i < cf.face.size(); ++i) {
-        const uint32_t* t = &surface.indices[3 * size_t(cf.face[i])];
-        const Vector3d corner[3] = {eig(load3d(surface.positions.data(), t[0])),
-                                    eig(load3d(surface.positions.data(), t[1])),
-                                    eig(load3d(surface.positions.data(), t[2]))};
-        cf.sphere[i] = bounding_sphere(corner);
+  // The projections onto the cells' faces: on the device when one is given
+  // and takes the lists (flattened for it), else here, where each face's
+  // bounding sphere prunes the searches.
+  std::unique_ptr<DualProjector> device;
+  if (options.device_projector) {
+    std::vector<uint32_t> list_start(size_t(count) + 1, 0), list_face;
+    for (uint32_t cell = 0; cell < count; ++cell)
+      list_start[cell + 1] = list_start[cell] + uint32_t(cell_faces[cell].face.size());
+    list_face.resize(list_start[count]);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 256), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t cell = r.begin(); cell != r.end(); ++cell)
+        std::copy(cell_faces[cell].face.begin(), cell_faces[cell].face.end(), list_face.begin() + list_start[cell]);
+    });
+    auto made = options.device_projector(CellFaceLists{&surface, &list_start, &list_face});
+    if (made.ok())
+      device = std::move(*made);
+    else
+      st.projection_fallback = made.status().to_string();
+  }
+  bool spheres_made = false;
+  auto make_spheres = [&] {
+    if (spheres_made) return;
+    spheres_made = true;
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 64), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t cell = r.begin(); cell != r.end(); ++cell) {
+        CellFaces& cf = cell_faces[cell];
+        cf.sphere.resize(cf.face.size());
+        for (size_t i = 0; i < cf.face.size(); ++i) {
+          const uint32_t* t = &surface.indices[3 * size_t(cf.face[i])];
+          const Vector3d corner[3] = {eig(load3d(surface.positions.data(), t[0])),
+                                      eig(load3d(surface.positions.data(), t[1])),
+                                      eig(load3d(surface.positions.data(), t[2]))};
+          cf.sphere[i] = bounding_sphere(corner);
+        }
       }
-    }
-  });
+    });
+  };
+  // A device that fails leaves the rest to the host, from the same state.
+  auto host_from_now = [&](const Status& failed) {
+    st.projection_fallback = failed.to_string();
+    device.reset();
+    make_spheres();
+  };
+  if (!device) make_spheres();
 
   // An input boundary loop met by exactly three cells: their triangle would
   // cap the hole (a small rim closes), so it is not made.
@@ -734,7 +666,8 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   std::vector<float> points(3 * size_t(count), 0.0f);
   std::vector<char> feature(count, 0);  // the cell covers a crease or corner
   std::vector<char> pinned_directions(count, 0);
-  std::vector<Vector3d> line(count, Vector3d::Zero());  // a crease cell's line direction
+  std::vector<Vec3d> line(count);                           // a crease cell's line direction
+  std::vector<Vec3d> solved(count), centre(count), placed;  // the quadric's minimum, the centroid, on the faces
   tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 256), [&](const tbb::blocked_range<uint32_t>& range) {
     for (uint32_t cell = range.begin(); cell != range.end(); ++cell) {
       if (!(weight[cell] > 0)) continue;
@@ -757,13 +690,34 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       // noise has short sharp edges).
       feature[cell] = pinned >= 2 && sharp_length[cell] > 0.5 * std::sqrt(weight[cell]);
       pinned_directions[cell] = char(pinned);
-      if (pinned == 2) line[cell] = u.col(0);  // eigenvalues ascend: the free direction first
-      Vector3d best = c;
-      double best_d = INFINITY;
-      nearest_on_faces(x, {&cell_faces[cell]}, surface, &best, &best_d);
-      for (int k = 0; k < 3; ++k) points[3 * cell + k] = float(best[k]);
+      if (pinned == 2) line[cell] = {u(0, 0), u(1, 0), u(2, 0)};  // eigenvalues ascend: the free direction first
+      solved[cell] = {x.x(), x.y(), x.z()};
+      centre[cell] = {c.x(), c.y(), c.z()};
     }
   });
+  if (device) {
+    const Status placed_there = device->place(solved, centre, &placed);
+    if (!placed_there.ok()) host_from_now(placed_there);
+  }
+  if (!device) {
+    placed.assign(count, Vec3d{});
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 256), [&](const tbb::blocked_range<uint32_t>& range) {
+      for (uint32_t cell = range.begin(); cell != range.end(); ++cell) {
+        if (!(weight[cell] > 0)) continue;
+        Vec3d best = centre[cell];
+        double best_d = INFINITY;
+        const FaceList faces = cell_faces[cell].list();
+        nearest_on_lists(solved[cell], &faces, 1, surface.positions.data(), surface.indices.data(), &best, &best_d);
+        placed[cell] = best;
+      }
+    });
+  }
+  for (uint32_t cell = 0; cell < count; ++cell)
+    if (weight[cell] > 0) {
+      points[3 * size_t(cell)] = float(placed[cell].x);
+      points[3 * size_t(cell) + 1] = float(placed[cell].y);
+      points[3 * size_t(cell) + 2] = float(placed[cell].z);
+    }
 
   // Two cells can land on one point of the input, or within rounding of it
   // (a corner of a face both touch): a needle of zero length and two
@@ -882,7 +836,12 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       else if (feature[cell]) freedom[v] = Freedom::kAlongLine;
     }
     for (int round = 0; round < options.relax_rounds; ++round) {
-      relax_tangentially(out, source, freedom, line, surface, cell_faces);
+      Status relaxed = relax_tangentially(out, source, freedom, line, surface, cell_faces, device.get());
+      if (!relaxed.ok() && device) {
+        host_from_now(relaxed);
+        relaxed = relax_tangentially(out, source, freedom, line, surface, cell_faces, nullptr);
+      }
+      VPR_RETURN_IF_ERROR(relaxed);
       delaunay_flips(out);
     }
   }
@@ -891,7 +850,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     std::vector<Vector3d> vertex_line(out->vertex_count(), Vector3d::Zero());
     for (size_t v = 0; v < on_feature.size(); ++v) {
       on_feature[v] = feature[source[v]];
-      if (feature[source[v]] && pinned_directions[source[v]] == 2) vertex_line[v] = line[source[v]];
+      if (feature[source[v]] && pinned_directions[source[v]] == 2) vertex_line[v] = eig(line[source[v]]);
     }
     restore_crease_edges(out, on_feature, vertex_line);
   }
@@ -911,6 +870,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     VPR_RETURN_IF_ERROR(fit_offsets(surface, label, source, held, options.offset, out, &st.offset));
   }
   flip_caps(out);
+  st.projected_on_device = device != nullptr;
   st.cells_unused = count - out->vertex_count();
   if (cell_of_vertex) *cell_of_vertex = std::move(source);
   if (stats) *stats = st;

@@ -19,15 +19,17 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include "core/mesh.h"
+#include "core/status.h"
 #include "core/vec3.h"
+#include "surface/dual_projection.h"
 #include "surface/mesh_edges.h"
 #include "surface/meshing.h"
 #include "surface/offset_fit.h"
-#include "core/status.h"
 
 namespace vpr {
 
@@ -39,6 +41,10 @@ struct ClusterMeshStats {
   size_t points_separated = 0; // cells moved off a point another cell took
   MeshingStats repair;         // repair_triangle_soup's account
   OffsetFitStats offset;       // fit_offsets' account
+  // The projections onto the cells' faces (placing and relaxing) ran on the
+  // device to the end; projection_fallback: why the host made them instead.
+  bool projected_on_device = false;
+  std::string projection_fallback;
 };
 
 // What the dual reads of the refined surface alone, whatever its cells: made
@@ -73,6 +79,9 @@ struct ClusterMeshOptions {
   // dual_surface(surface, edges, ...) made already (null: made here). Its
   // planes are made here if it has none and the per-cell sums read them.
   const DualSurface* surface_facts = nullptr;
+  // The projections onto the cells' faces made on a device (the host's bits;
+  // null, or a device that fails: on the host).
+  DualProjectorSource device_projector;
 };
 
 // surface: the refined input; label: its vertices' cells, count cells.
