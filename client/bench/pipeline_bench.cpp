@@ -11,7 +11,7 @@
 // N million triangles. Prints Markdown tables; progress goes to stderr.
 //   vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]
 //                  [--cvt-sweeps auto|rounds|slabs] [--render-prep auto|host]
-//                  [--render-readback auto|host]
+//                  [--render-readback auto|host] [--dual-projection auto|host]
 //                  [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...
 // --density: the jobs' density mode (uniform, curvature, perception, paper;
 // the pipeline's default when not given).
@@ -63,6 +63,7 @@ struct Args {
   vpr::CvtSweeps cvt_sweeps = vpr::CvtSweeps::kAuto;
   bool render_prep_on_gpu = true;
   bool render_interop = true;
+  bool dual_projection_on_gpu = true;
   std::vector<std::pair<std::string, uint32_t>> inputs;
 };
 
@@ -108,6 +109,7 @@ vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::
   options.cvt_sweeps = args.cvt_sweeps;
   options.render_prep_on_gpu = args.render_prep_on_gpu;
   options.render_interop = args.render_interop;
+  options.dual_projection_on_gpu = args.dual_projection_on_gpu;
   options.on_stage = [&](const vpr::StageTiming& s) { cpu_lap(s.name); };
   auto result = vpr::run_pipeline(*mesh, options);
   if (!result.ok()) return result.status();
@@ -170,6 +172,10 @@ int parse_args(int argc, char** argv, Args* a) {
       const std::string m = next();
       if (m != "auto" && m != "host") return 2;
       a->render_interop = m == "auto";
+    } else if (s == "--dual-projection") {
+      const std::string m = next();
+      if (m != "auto" && m != "host") return 2;
+      a->dual_projection_on_gpu = m == "auto";
     } else if (s == "--peers") {
       a->peers = next();
     } else if (s == "--concurrency") {
@@ -224,7 +230,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]\n"
                  "                      [--cvt-sweeps auto|rounds|slabs] [--render-prep auto|host]\n"
-                 "                      [--render-readback auto|host]\n"
+                 "                      [--render-readback auto|host] [--dual-projection auto|host]\n"
                  "                      [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
     return 2;
   }

@@ -114,6 +114,9 @@ TEST_F(PipelineGpu, PerceptionDensityFieldRunsOnTheGpuAndEqualsTheCpu) {
   ASSERT_NE(cvt, nullptr);
   EXPECT_EQ(cvt->device, "cuda") << cvt->note;
   EXPECT_NE(cvt->note.find("in colour rounds"), std::string::npos) << cvt->note;
+  const StageTiming* meshing = find_stage(*gpu, "meshing");
+  ASSERT_NE(meshing, nullptr);
+  EXPECT_NE(meshing->note.find("vertices placed and relaxed on the GPU"), std::string::npos) << meshing->note;
   auto rounds = run(DevicePolicy::kCpu, nullptr, DensityMode::kPerception, CvtSweeps::kColourRounds);
   ASSERT_TRUE(rounds.ok()) << rounds.status().to_string();
   EXPECT_EQ(rounds->mesh.positions, gpu->mesh.positions);
@@ -189,6 +192,12 @@ TEST_F(PipelineGpu, AStageThatFailsOnTheGpuRerunsOnTheCpu) {
   EXPECT_NE(render->note.find("RESOURCE_EXHAUSTED"), std::string::npos) << render->note;
   EXPECT_NE(render->note.find("geometry prepared on the host"), std::string::npos) << render->note;
   EXPECT_NE(render->note.find("pixels read back"), std::string::npos) << render->note;
+  // The dual's projections too: made on the host, the same mesh.
+  const StageTiming* meshing = find_stage(*fallback, "meshing");
+  ASSERT_NE(meshing, nullptr);
+  EXPECT_NE(meshing->note.find("vertices placed and relaxed on the CPU: the GPU failed: RESOURCE_EXHAUSTED"),
+            std::string::npos)
+      << meshing->note;
   EXPECT_EQ(fallback->saliency_points, cpu->saliency_points);
   EXPECT_EQ(fallback->mesh.positions, cpu->mesh.positions);
   EXPECT_EQ(fallback->mesh.indices, cpu->mesh.indices);

@@ -863,6 +863,11 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
               mesh_options.offset.device_samples = [&c](const OffsetSamples& s) {
                 return cuda::offset_sample_set(s, c);
               };
+              // The projections onto the cells' faces too (the host's bits).
+              if (options.dual_projection_on_gpu)
+                mesh_options.device_projector = [&c](const CellFaceLists& lists) {
+                  return cuda::dual_projector(lists, c);
+                };
             }
 #endif
             VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, refined.edges, label, cells, &result.mesh, &cell,
@@ -909,6 +914,11 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
               if (!fit.device_failure.empty())
                 note += " (fitted on the CPU: the GPU failed: " + fit.device_failure + ")";
             }
+            if (result.cluster_mesh.projected_on_device)
+              note += "; vertices placed and relaxed on the GPU";
+            else if (!result.cluster_mesh.projection_fallback.empty())
+              note += "; vertices placed and relaxed on the CPU: the GPU failed: " +
+                      result.cluster_mesh.projection_fallback;
             return Status::Ok();
           },
           &note));

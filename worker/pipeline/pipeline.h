@@ -158,6 +158,11 @@ struct PipelineOptions {
   // visibility cue start there. false reads them back to the host and uploads
   // them again (the same images; for benchmarks, `--render-readback host`).
   bool render_interop = true;
+  // On a GPU job the dual's projections onto the cells' faces (placing its
+  // vertices, the relaxation rounds) run on the device
+  // (surface/dual_projection.h); false runs them on the host (the same mesh;
+  // for benchmarks, `--dual-projection host`).
+  bool dual_projection_on_gpu = true;
   // Called at every stage boundary; returning false cancels the job there.
   std::function<bool()> keep_going;
   // Called as each stage ends, e.g. to stream progress; the StageTiming is
