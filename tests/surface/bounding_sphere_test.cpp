@@ -1,7 +1,6 @@
-// Bounding spheres of triangles (surface/bounding_sphere.h): the lower bound
-// the dual's nearest-face searches rely on.
-#include "surface/bounding_sphere.h"
-
+// Bounding spheres of triangles (face_sphere, surface/dual_projection.h):
+// the lower bound the dual's nearest-face searches rely on, on the host and
+// the device alike.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +9,7 @@
 #include "core/mesh.h"
 #include "core/rng.h"
 #include "core/vec3.h"
+#include "surface/dual_projection.h"
 
 namespace vpr {
 namespace {
@@ -22,9 +22,10 @@ TEST(BoundingSphere, HoldsItsCornersAndItsGapNeverExceedsTheDistance) {
   int no_area = 0;
   for (uint64_t i = 0; i < 2000; ++i) {
     const Philox4 r = random4(23, i, 0), s = random4(23, i, 1), t = random4(23, i, 2);
-    // Triangles of sizes 1e-4 to 1 (every fifth a sliver) at offsets up to 1e4.
+    // Triangles of sizes 1e-4 to 1 (every fifth a sliver) at offsets up to
+    // 2e5 (a float's step there is 1/64, far above the smallest triangles).
     const double size = std::pow(10.0, -4.0 * uniform01(r.v[3]));
-    const double offset = i % 3 == 0 ? 0.0 : std::pow(10.0, 4.0 * uniform01(s.v[3]));
+    const double offset = i % 3 == 0 ? 0.0 : 2 * std::pow(10.0, 5.0 * uniform01(s.v[3]));
     const Vec3d base = {offset, -0.5 * offset, 0.25 * offset};
     Vec3d c[3];
     for (int k = 0; k < 3; ++k) {
@@ -33,28 +34,31 @@ TEST(BoundingSphere, HoldsItsCornersAndItsGapNeverExceedsTheDistance) {
     }
     if (i % 5 == 0) c[2] = c[0] * 0.5 + c[1] * 0.5 + Vec3d{0, 0, 1e-9 * size};
     // The corners as float positions are stored, then widened.
-    Eigen::Vector3d corner[3];
+    float stored[9];
     for (int k = 0; k < 3; ++k) {
-      const float stored[3] = {float(c[k].x), float(c[k].y), float(c[k].z)};
-      corner[k] = Eigen::Vector3d(double(stored[0]), double(stored[1]), double(stored[2]));
+      stored[3 * k] = float(c[k].x);
+      stored[3 * k + 1] = float(c[k].y);
+      stored[3 * k + 2] = float(c[k].z);
     }
-    const Vec3d a = {corner[0].x(), corner[0].y(), corner[0].z()}, b = {corner[1].x(), corner[1].y(), corner[1].z()},
-                e = {corner[2].x(), corner[2].y(), corner[2].z()};
+    const uint32_t triangle[3] = {0, 1, 2};
+    const Vec3d a = load3d(stored, 0), b = load3d(stored, 1), e = load3d(stored, 2);
     // A triangle whose corners fall on one line in float has no area: the
     // searches never see one (a cell's faces all have area).
     if (!(norm2(cross(b - a, e - a)) > 0)) {
       ++no_area;
       continue;
     }
-    const std::array<float, 4> sphere = bounding_sphere(corner);
-    for (const Eigen::Vector3d& k : corner) EXPECT_EQ(sphere_gap2(k, sphere), 0.0) << "triangle " << i;
+    const std::array<float, 4> sphere = face_sphere(stored, triangle, 0);
+    // The centre is stored in float and the radius measured from it.
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(double(sphere[k]), double(float(sphere[k])));
+    for (const Vec3d& k : {a, b, e}) EXPECT_EQ(sphere_gap2(k, sphere), 0.0) << "triangle " << i;
     // Queries on the triangle, just off it and far from it.
     for (int j = 0; j < 4; ++j) {
       const double u = uniform01(t.v[j % 4]), v = (1 - u) * uniform01(r.v[j % 3]);
       const double away = (j == 0 ? 0.0 : j == 1 ? 1e-6 : j == 2 ? 1e-2 : 100.0) * size;
       const Vec3d on = a * (1 - u - v) + b * u + e * v;
       const Vec3d p = on + Vec3d{away, -away, 0.5 * away};
-      const double gap = sphere_gap2({p.x, p.y, p.z}, sphere);
+      const double gap = sphere_gap2(p, sphere);
       // The gap may not exceed the distance to any point of the triangle:
       // here a grid of barycentric steps of 1/16, corners and edges included.
       double distance = INFINITY;

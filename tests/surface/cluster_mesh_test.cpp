@@ -221,13 +221,13 @@ struct Cells {
   uint32_t count = 0;
 };
 
-Cells cells_of(Mesh surface, uint32_t target) {
+Cells cells_of(Mesh surface, uint32_t target, double anisotropy) {
   Cells c;
   c.surface = std::move(surface);
   c.edges = mesh_edges(c.surface);
   CvtStats cvt;
   CvtOptions options;
-  options.anisotropy = 0.04 * std::sqrt(3.0);
+  if (anisotropy >= 0) options.anisotropy = anisotropy;
   EXPECT_TRUE(surface_cvt(c.surface, c.edges, vertex_areas(c.surface), target, options, &c.label, &cvt).ok());
   c.count = cvt.clusters;
   return c;
@@ -236,11 +236,11 @@ Cells cells_of(Mesh surface, uint32_t target) {
 // An open box (a boundary loop, creases, corners) and a torus 10^4 units
 // from the origin, where floats have few bits to spare.
 std::vector<Cells> projection_cases() {
-  Mesh far = testing::torus(1.0, 0.35, 48, 96);
-  for (size_t i = 0; i < far.positions.size(); i += 3) far.positions[i] += 1e4f;
+  Mesh far = testing::torus(1.0, 0.35, 64, 128);
+  for (size_t i = 0; i < far.positions.size(); i += 3) far.positions[i] += 2e5f;
   std::vector<Cells> cases;
-  cases.push_back(cells_of(open_box(24), 300));
-  cases.push_back(cells_of(std::move(far), 400));
+  cases.push_back(cells_of(open_box(24), 300, 0.04 * std::sqrt(3.0)));
+  cases.push_back(cells_of(std::move(far), 600, -1));
   return cases;
 }
 

@@ -21,7 +21,6 @@
 #include "core/mesh_parts.h"
 #include "core/vec3.h"
 #include "core/vertex_ranges.h"
-#include "surface/bounding_sphere.h"
 #include "surface/dual_projection.h"
 #include "surface/edge_flips.h"
 
@@ -579,13 +578,8 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       for (uint32_t cell = r.begin(); cell != r.end(); ++cell) {
         CellFaces& cf = cell_faces[cell];
         cf.sphere.resize(cf.face.size());
-        for (size_t i = 0; i < cf.face.size(); ++i) {
-          const uint32_t* t = &surface.indices[3 * size_t(cf.face[i])];
-          const Vector3d corner[3] = {eig(load3d(surface.positions.data(), t[0])),
-                                      eig(load3d(surface.positions.data(), t[1])),
-                                      eig(load3d(surface.positions.data(), t[2]))};
-          cf.sphere[i] = bounding_sphere(corner);
-        }
+        for (size_t i = 0; i < cf.face.size(); ++i)
+          cf.sphere[i] = face_sphere(surface.positions.data(), surface.indices.data(), cf.face[i]);
       }
     });
   };

@@ -29,7 +29,7 @@ namespace vpr {
 enum class Freedom : uint8_t { kFree, kAlongLine, kHeld };
 
 // A cell's faces of the surface (in face order) and their bounding spheres
-// (bounding_sphere.h: centre and radius, rounded up).
+// (face_sphere below).
 struct FaceList {
   const uint32_t* face = nullptr;
   const std::array<float, 4>* sphere = nullptr;
@@ -66,7 +66,17 @@ VPR_HD inline double sphere_gap2(const Vec3d& x, const std::array<float, 4>& s) 
   return gap > 0 ? gap * gap : 0.0;
 }
 
-// Triangle f's bounding sphere (bounding_sphere.h's, for the device).
+// Triangle f's bounding sphere, to prune the nearest-face searches: centre
+// x, y, z (the centroid, stored in float) and radius, measured from the
+// stored centre and rounded up by 1e-5 of itself, so that a search which
+// skips a triangle only when its sphere is farther than the best distance
+// (with a relative margin of 1e-6) picks the point a full search picks. The
+// centre is rounded to float before the radius is measured from it: far
+// from the origin a float's step exceeds a small triangle (1/64 at 2e5), and
+// a radius measured from the unrounded centre misses corners there. (The
+// Eigen version this replaces came out of GCC 12's -O3, inlined in the
+// dual, measuring from the unrounded centre: radii up to 7% short on a torus
+// 2e5 units out, where cluster_mesh_test's projections disagreed with these.)
 VPR_HD inline std::array<float, 4> face_sphere(const float* positions, const uint32_t* indices, size_t f) {
   const uint32_t* t = indices + 3 * f;
   const Vec3d corner[3] = {load3d(positions, t[0]), load3d(positions, t[1]), load3d(positions, t[2])};
