@@ -143,7 +143,8 @@ TEST_F(PipelineGpu, PerceptionDensityFieldRunsOnTheGpuAndEqualsTheCpu) {
 
 // A budget too small for the CVT's device buffers: the stage reruns whole on
 // the CPU, says so, and gives the GPU's mesh exactly (the rounds' CPU
-// reference), so a job's result does not depend on the memory free.
+// reference), so a job's result does not depend on the memory free; the
+// dual's projections likewise.
 TEST_F(PipelineGpu, TheCvtRerunsOnTheCpuWhenTheGpuFails) {
   DeviceBudget tiny;
   tiny.limit = 1024;
@@ -157,6 +158,14 @@ TEST_F(PipelineGpu, TheCvtRerunsOnTheCpuWhenTheGpuFails) {
   EXPECT_NE(t->note.find("RESOURCE_EXHAUSTED"), std::string::npos) << t->note;
   EXPECT_GT(fallback->cvt.device_sweeps, 0u);
   EXPECT_EQ(find_stage(*gpu, "cvt")->device, "cuda");
+  // The dual's projections too: made on the host, the same mesh.
+  const StageTiming* meshing = find_stage(*fallback, "meshing");
+  ASSERT_NE(meshing, nullptr);
+  EXPECT_NE(meshing->note.find("vertices placed and relaxed on the CPU: the GPU failed: RESOURCE_EXHAUSTED"),
+            std::string::npos)
+      << meshing->note;
+  EXPECT_NE(find_stage(*gpu, "meshing")->note.find("vertices placed and relaxed on the GPU"), std::string::npos)
+      << find_stage(*gpu, "meshing")->note;
   EXPECT_EQ(fallback->mesh.positions, gpu->mesh.positions);
   EXPECT_EQ(fallback->mesh.indices, gpu->mesh.indices);
   EXPECT_EQ(tiny.used.load(), 0u) << "every device buffer must be released";
@@ -192,12 +201,6 @@ TEST_F(PipelineGpu, AStageThatFailsOnTheGpuRerunsOnTheCpu) {
   EXPECT_NE(render->note.find("RESOURCE_EXHAUSTED"), std::string::npos) << render->note;
   EXPECT_NE(render->note.find("geometry prepared on the host"), std::string::npos) << render->note;
   EXPECT_NE(render->note.find("pixels read back"), std::string::npos) << render->note;
-  // The dual's projections too: made on the host, the same mesh.
-  const StageTiming* meshing = find_stage(*fallback, "meshing");
-  ASSERT_NE(meshing, nullptr);
-  EXPECT_NE(meshing->note.find("vertices placed and relaxed on the CPU: the GPU failed: RESOURCE_EXHAUSTED"),
-            std::string::npos)
-      << meshing->note;
   EXPECT_EQ(fallback->saliency_points, cpu->saliency_points);
   EXPECT_EQ(fallback->mesh.positions, cpu->mesh.positions);
   EXPECT_EQ(fallback->mesh.indices, cpu->mesh.indices);
