@@ -414,13 +414,17 @@ DualSurface dual_surface(const Mesh& surface, const MeshEdges& edges, bool with_
       }
     });
     // A sharp edge: faces more than 30 degrees apart (the flips' crease),
-    // tested per edge in parallel.
+    // tested per edge in parallel, with each face's unit normal made once
+    // (the planes' normal; a face of no area, whose plane has none, its
+    // normal as the test made it).
+    face_planes(surface, &facts.normal, &facts.area);
+    auto unit_normal = [&](uint32_t f) { return facts.area[f] > 0 ? eig(facts.normal[f]) : face_normal(f); };
     std::vector<char> sharp(edges.neighbor.size(), 0);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 2048), [&](const tbb::blocked_range<uint32_t>& r) {
       for (uint32_t u = r.begin(); u != r.end(); ++u)
         for (uint32_t e = edges.offset[u]; e < edges.offset[u + 1]; ++e) {
           if (edges.neighbor[e] <= u || edges.faces[e] != 2 || faces_of[e][1] == UINT32_MAX) continue;
-          sharp[e] = face_normal(faces_of[e][0]).dot(face_normal(faces_of[e][1])) < kCreaseCos;
+          sharp[e] = unit_normal(faces_of[e][0]).dot(unit_normal(faces_of[e][1])) < kCreaseCos;
         }
     });
     // The sharp entries in row order (few: a scan's creases, a CAD model's
@@ -431,7 +435,10 @@ DualSurface dual_surface(const Mesh& surface, const MeshEdges& edges, bool with_
             if (sharp[e]) out->push_back({uint32_t(u), edges.neighbor[e]});
         }, 4096);
   }
-  if (with_planes) face_planes(surface, &facts.normal, &facts.area);
+  if (!with_planes) {
+    facts.normal = {};
+    facts.area = {};
+  }
   return facts;
 }
 
