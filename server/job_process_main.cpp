@@ -14,6 +14,7 @@
 #include <cstdlib>
 
 #include "core/running_jobs.h"
+#include "core/thread_share.h"
 #include "server/host_job_count.h"
 #include "server/job_channel.h"
 #include "server/job_process.h"
@@ -143,6 +144,10 @@ int job_process_main(const JobProcessFds& fds) {
     ClaimedJob job;
     if (frame.type != FrameType::kJob || !decode_job(frame.payload, &job)) return 2;
     allow_cpu_seconds(limits.cpu_seconds);
+    // This process's TBB threads: its share of the host's cores while the
+    // server's other job processes run (core/thread_share.h), all of them
+    // when it runs alone.
+    const ThreadCap share(one_job_process_threads(host_threads(), running_jobs()));
     run_job(relay, std::move(job), ctx);
     if (!write_frame(fd, FrameType::kJobDone, "")) break;
   }

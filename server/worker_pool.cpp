@@ -374,6 +374,11 @@ WorkerContext WorkerPool::make_context(int index) {
   return ctx;
 }
 
+void WorkerPool::share_threads() {
+  thread_cap_.reset();  // the old cap goes before the new one is set
+  thread_cap_.emplace(shared_process_threads(host_threads(), int(busy_)));
+}
+
 void WorkerPool::worker_main(int index) {
   WorkerContext ctx = make_context(index);
   const bool isolated = !options_.process.exe.empty();
@@ -421,6 +426,8 @@ void WorkerPool::worker_main(int index) {
       running_[size_t(index)] = job->id;
       ++busy_;
       if (host_jobs_) host_jobs_->set(int(busy_));
+      else
+        share_threads();
       if (metrics_) metrics_->busy_workers.set(double(busy_));
     }
     if (!isolated) {
@@ -462,6 +469,8 @@ void WorkerPool::worker_main(int index) {
       running_[size_t(index)].clear();
       --busy_;
       if (host_jobs_) host_jobs_->set(int(busy_));
+      else
+        share_threads();
       if (metrics_) metrics_->busy_workers.set(double(busy_));
     }
     changed_.notify_all();

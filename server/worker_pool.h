@@ -8,10 +8,12 @@
 #include <condition_variable>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "core/thread_share.h"
 #include "pipeline/pipeline.h"
 #include "server/host_job_count.h"
 #include "server/job_queue.h"
@@ -107,6 +109,8 @@ class WorkerPool {
 
  private:
   void worker_main(int index);
+  // Jobs in threads: TBB's threads for the busy_ jobs, mu_ held.
+  void share_threads();
   // The worker's context, without its renderer and CUDA set-up (the job
   // process, or worker_main itself without one, does those).
   WorkerContext make_context(int index);
@@ -122,6 +126,8 @@ class WorkerPool {
   std::vector<std::string> failures_;
   std::vector<std::string> running_;  // job id per worker ("" when idle)
   std::unique_ptr<HostJobCount> host_jobs_;  // busy_, for the job processes (null: jobs in threads)
+  // Jobs in threads: TBB's threads while busy_ jobs run (core/thread_share.h).
+  std::optional<ThreadCap> thread_cap_;
 };
 
 }  // namespace vpr::service

@@ -30,6 +30,7 @@
 #include <thread>
 #include <vector>
 
+#include "core/thread_share.h"
 #include "io/mesh_io.h"
 #include "peers/peers.h"
 #include "pipeline/pipeline.h"
@@ -366,6 +367,10 @@ int main(int argc, char** argv) {
           std::atomic<int> next{0}, failed{0};
           std::mutex lock;
           std::map<std::string, double> stage_sum;  // over the jobs that finished
+          // TBB's threads shared with the c jobs' own, as the service's pool
+          // does with jobs in threads (core/thread_share.h), unless --threads.
+          std::optional<vpr::ThreadCap> share;
+          if (args.threads == 0) share.emplace(vpr::shared_process_threads(vpr::host_threads(), c));
           const auto start = Clock::now();
           const double cpu_start = cpu_seconds();
           std::vector<std::thread> pool;

@@ -29,13 +29,13 @@ namespace vpr {
 // share of the threads when several run (core/running_jobs.h).
 constexpr size_t kMaxVertexRanges = 8;
 
-// The threads this job's loops may count on: the arena's, or fewer where a
-// global_control limits them, shared out among the running jobs (at least 1).
+// The threads this job's loops may count on: the arena's shared out among
+// the running jobs (at least 1), or fewer where a global_control limits them
+// (a cap that already is this job's share, core/thread_share.h, is not
+// shared out again).
 inline size_t job_threads() {
-  const size_t threads =
-      std::min<size_t>(size_t(tbb::this_task_arena::max_concurrency()),
-                       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
-  return std::max<size_t>(1, threads / size_t(running_jobs()));
+  const size_t share = std::max<size_t>(1, size_t(tbb::this_task_arena::max_concurrency()) / size_t(running_jobs()));
+  return std::min<size_t>(share, tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
 }
 
 // body(lo, hi): the loop, applying only the updates of vertices in [lo, hi).
