@@ -34,7 +34,7 @@ inline size_t one_job_process_threads(size_t cores, int jobs) {
 // one fewer). All of them when one job runs.
 inline size_t shared_process_threads(size_t cores, int jobs) {
   if (jobs <= 1) return cores;
-  return std::max<size_t>(1, cores > size_t(jobs) ? cores - size_t(jobs) + 1 : 1);
+  return cores > size_t(jobs) ? cores - size_t(jobs) + 1 : 1;
 }
 
 // Caps this process's TBB threads at `threads` while it lives; no cap at the

@@ -417,8 +417,10 @@ DualSurface dual_surface(const Mesh& surface, const MeshEdges& edges, bool with_
     // tested per edge in parallel, with each face's unit normal made once
     // (the planes' normal; a face of no area, whose plane has none, its
     // normal as the test made it).
-    face_planes(surface, &facts.normal, &facts.area);
-    auto unit_normal = [&](uint32_t f) { return facts.area[f] > 0 ? eig(facts.normal[f]) : face_normal(f); };
+    std::vector<Vec3d> normal;
+    std::vector<double> area;
+    face_planes(surface, &normal, &area);
+    auto unit_normal = [&](uint32_t f) { return area[f] > 0 ? eig(normal[f]) : face_normal(f); };
     std::vector<char> sharp(edges.neighbor.size(), 0);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 2048), [&](const tbb::blocked_range<uint32_t>& r) {
       for (uint32_t u = r.begin(); u != r.end(); ++u)
@@ -434,10 +436,10 @@ DualSurface dual_surface(const Mesh& surface, const MeshEdges& edges, bool with_
           for (uint32_t e = edges.offset[u]; e < edges.offset[u + 1]; ++e)
             if (sharp[e]) out->push_back({uint32_t(u), edges.neighbor[e]});
         }, 4096);
-  }
-  if (!with_planes) {
-    facts.normal = {};
-    facts.area = {};
+    if (with_planes) {
+      facts.normal = std::move(normal);
+      facts.area = std::move(area);
+    }
   }
   return facts;
 }
