@@ -9,98 +9,10 @@
 #include "core/mesh_parts.h"
 #include "core/vec3.h"
 #include "peers/peers.h"
+#include "pipeline/triangle_shape.h"
 #include "surface/closest_point.h"
 
 namespace vpr {
-namespace {
-
-// Topology of a set of triangles: a manifold (every directed edge once,
-// every vertex one fan), closed (every edge in two faces, once each way),
-// one piece, its Euler characteristic and its boundary loops.
-struct Shape {
-  bool manifold = false;
-  bool closed_manifold = false;
-  bool one_piece = false;
-  int64_t euler = 0;
-  size_t loops = 0;
-};
-
-// rank: a table of UINT32_MAX that the calls share (one per part would cost
-// the whole output's size per part); grown as needed, left as it was found.
-Shape shape_of(const std::vector<std::array<uint32_t, 3>>& faces, std::vector<uint32_t>* rank) {
-  Shape s;
-  if (faces.empty()) return s;
-  std::vector<uint32_t> verts;
-  for (const auto& f : faces) verts.insert(verts.end(), f.begin(), f.end());
-  std::sort(verts.begin(), verts.end());
-  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-  // Each vertex's rank among the part's (a table: a binary search per corner
-  // cost more than the rest of this function together).
-  if (rank->size() <= verts.back()) rank->resize(size_t(verts.back()) + 1, UINT32_MAX);
-  for (uint32_t i = 0; i < uint32_t(verts.size()); ++i) (*rank)[verts[i]] = i;
-  auto local = [&](uint32_t v) { return (*rank)[v]; };
-  // Directed edges: each once, and its reverse once.
-  std::vector<uint64_t> directed;
-  for (const auto& f : faces)
-    for (int k = 0; k < 3; ++k) directed.push_back(uint64_t(local(f[k])) << 32 | local(f[(k + 1) % 3]));
-  std::sort(directed.begin(), directed.end());
-  bool manifold = std::adjacent_find(directed.begin(), directed.end()) == directed.end();
-  std::vector<uint64_t> border;  // directed edges without their reverse
-  for (uint64_t e : directed)
-    if (!std::binary_search(directed.begin(), directed.end(), (e << 32) | (e >> 32))) border.push_back(e);
-  // One fan per vertex: the edges opposite it in its faces join into one cycle.
-  std::vector<std::array<uint32_t, 3>> link;  // (vertex, next, previous)
-  for (const auto& f : faces)
-    for (int k = 0; k < 3; ++k) link.push_back({local(f[k]), local(f[(k + 1) % 3]), local(f[(k + 2) % 3])});
-  std::sort(link.begin(), link.end());
-  std::vector<uint32_t> parent(verts.size()), roots;
-  auto find = [&](uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  for (size_t i = 0; i < link.size() && manifold;) {
-    size_t j = i;
-    while (j < link.size() && link[j][0] == link[i][0]) ++j;
-    for (size_t k = i; k < j; ++k) parent[link[k][1]] = link[k][1], parent[link[k][2]] = link[k][2];
-    for (size_t k = i; k < j; ++k) {
-      const uint32_t a = find(link[k][1]), b = find(link[k][2]);
-      if (a != b) parent[a] = b;
-    }
-    roots.clear();
-    for (size_t k = i; k < j; ++k) roots.push_back(find(link[k][1]));
-    std::sort(roots.begin(), roots.end());
-    manifold = std::unique(roots.begin(), roots.end()) - roots.begin() == 1;
-    i = j;
-  }
-  // Pieces, joined by shared vertices.
-  std::iota(parent.begin(), parent.end(), 0u);
-  for (const auto& f : faces)
-    for (int k = 1; k < 3; ++k) {
-      const uint32_t a = find(local(f[0])), b = find(local(f[k]));
-      if (a != b) parent[a] = b;
-    }
-  size_t pieces = 0;
-  for (uint32_t v = 0; v < verts.size(); ++v) pieces += find(v) == v;
-  // Boundary loops: the border edges' pieces (in a manifold each border
-  // vertex has one border edge in and one out, so each piece is one loop).
-  std::iota(parent.begin(), parent.end(), 0u);
-  std::vector<char> on_border(verts.size(), 0);
-  for (uint64_t e : border) {
-    const uint32_t a = uint32_t(e >> 32), b = uint32_t(e);
-    on_border[a] = on_border[b] = 1;
-    if (find(a) != find(b)) parent[find(a)] = find(b);
-  }
-  for (uint32_t v = 0; v < verts.size(); ++v) s.loops += on_border[v] && find(v) == v;
-  const size_t edges = (directed.size() + border.size()) / 2;
-  s.manifold = manifold;
-  s.closed_manifold = manifold && border.empty();
-  s.one_piece = pieces == 1;
-  s.euler = int64_t(verts.size()) - int64_t(edges) + int64_t(faces.size());
-  for (uint32_t v : verts) (*rank)[v] = UINT32_MAX;
-  return s;
-}
-
-}  // namespace
 
 SurfaceParts surface_parts(const Mesh& surface, const MeshEdges& edges) {
   SurfaceParts sp;
@@ -119,7 +31,7 @@ SurfaceParts surface_parts(const Mesh& surface, const MeshEdges& edges) {
   }
   // Closed input parts (every edge in two faces) and their Euler
   // characteristic, counted in one pass over the surface's rows (a sort of
-  // its million corners, as shape_of does for the small output, cost igea
+  // its million corners, as the output part's shape once was counted, cost igea
   // a second).
   // Open parts too, where they are manifolds (every edge in one or two
   // faces): their boundary loops, counted as the pieces of their border
@@ -220,11 +132,11 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
   std::vector<Replacement> replacements;
   // Whole: a manifold in one piece with the input part's Euler
   // characteristic and boundary loops (closed when the part is).
-  auto whole = [&](const Shape& shape, uint32_t p) {
+  auto whole = [&](const TriangleShape& shape, uint32_t p) {
     return shape.manifold && shape.one_piece && shape.euler == euler[p] && shape.loops == loops[p] &&
            shape.closed_manifold == bool(closed[p]);
   };
-  std::vector<uint32_t> rank;  // shape_of's table, shared by the parts
+  std::vector<uint32_t> rank;  // triangle_shape's table, shared by the parts
   for (uint32_t p = 0; p < parts; ++p) {
     if (!manifold[p]) continue;  // no shape to hold the dual to
     // A part the CVT gave no cell (the target too small for every part: the
@@ -236,7 +148,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
       ++stats->parts_left;
       continue;
     }
-    const Shape now = shape_of(out_faces[p], &rank);
+    const TriangleShape now = triangle_shape(out_faces[p], &rank);
     if (whole(now, p)) continue;
     // The part alone, compact, in the surface's frame.
     Mesh sub;
@@ -267,7 +179,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
     // not taken: the part stays as the dual made it. (Parts welded at single
     // vertices no longer reach here as one part: refine_surface splits such
     // vertices, surface/pinch_split.h.)
-    if (!whole(shape_of(faces, &rank), p)) {
+    if (!whole(triangle_shape(faces, &rank), p)) {
       ++stats->parts_left;
       continue;
     }
