@@ -259,25 +259,47 @@ std::vector<uint32_t> defective_cells(const Mesh& mesh, const Adjacency& adj, co
   // the dual drops and which costs nothing but that vertex: a rod's cap.)
   std::vector<char> in_triangle(count, 0);
   for (const auto& t : tris) in_triangle[t[0]] = in_triangle[t[1]] = in_triangle[t[2]] = 1;
-  // Counts, so in any order: by ranges of cells, one per thread.
-  std::vector<int64_t> euler(count, 0);
-  in_vertex_ranges(
-      count,
-      [&](uint32_t lo, uint32_t hi) {
-        for (uint32_t u = 0; u < uint32_t(label.size()); ++u) {
-          const uint32_t c = label[u];
-          if (c < lo || c >= hi) continue;
-          ++euler[c];
-          for (const uint32_t* w = adj.begin(u); w != adj.end(u); ++w)
-            if (*w > u && label[*w] == c) --euler[c];
-        }
-        for (size_t f = 0; f < mesh.face_count(); ++f) {
-          const uint32_t* t = &mesh.indices[3 * f];
-          const uint32_t c = label[t[0]];
-          if (c >= lo && c < hi && label[t[1]] == c && label[t[2]] == c) ++euler[c];
-        }
-      },
-      256);
+  // Counts, so in any order: the elements and faces in parallel, each
+  // thread adding a run of one cell's terms at once (atomics: a per-thread
+  // array would cost the cell count per thread). Ranges of cells, each
+  // reading every element and face, read them up to eight times over: 9 ms
+  // of igea's 10,000-vertex job on an H200.
+  std::vector<std::atomic<int64_t>> euler(count);
+  for (auto& e : euler) e.store(0, std::memory_order_relaxed);
+  struct Run {  // a run of terms of one cell, added when the cell changes
+    std::vector<std::atomic<int64_t>>* sums;
+    uint32_t cell = UINT32_MAX;
+    int64_t sum = 0;
+    void add(uint32_t c, int64_t d) {
+      if (c != cell) flush(), cell = c;
+      sum += d;
+    }
+    void flush() {
+      if (cell != UINT32_MAX && sum != 0) (*sums)[cell].fetch_add(sum, std::memory_order_relaxed);
+      sum = 0;
+    }
+  };
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(label.size()), 8192),
+                    [&](const tbb::blocked_range<uint32_t>& r) {
+                      Run run{&euler};
+                      for (uint32_t u = r.begin(); u != r.end(); ++u) {
+                        const uint32_t c = label[u];
+                        if (c >= count) continue;
+                        int64_t d = 1;  // the element, less its edges to later elements of its cell
+                        for (const uint32_t* w = adj.begin(u); w != adj.end(u); ++w) d -= *w > u && label[*w] == c;
+                        run.add(c, d);
+                      }
+                      run.flush();
+                    });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.face_count(), 8192), [&](const tbb::blocked_range<size_t>& r) {
+    Run run{&euler};
+    for (size_t f = r.begin(); f != r.end(); ++f) {
+      const uint32_t* t = &mesh.indices[3 * f];
+      const uint32_t c = label[t[0]];
+      if (c < count && label[t[1]] == c && label[t[2]] == c) run.add(c, 1);
+    }
+    run.flush();
+  });
   for (uint32_t c = 0; c < count; ++c)
     if (euler[c] < 1 && !in_triangle[c]) bad[c] = 1;
   std::vector<uint32_t> out;
