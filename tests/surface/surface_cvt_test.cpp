@@ -1,10 +1,13 @@
 // The surface back half: refinement, the CVT on the input surface, its dual.
 // Shapes are generated here; every property is counted from the returned
 // index buffer: boundary loops, non-manifold edges, closedness, distances.
+#include "surface/surface_cvt.h"
+
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -13,11 +16,11 @@
 #include <set>
 #include <vector>
 
+#include "core/vec3.h"
 #include "surface/cluster_mesh.h"
-#include "surface/surface_cvt.h"
+#include "surface/edge_smoothing.h"
 #include "surface/surface_density.h"
 #include "surface/surface_refine.h"
-#include "core/vec3.h"
 #include "test_meshes.h"
 
 namespace vpr {
@@ -1154,6 +1157,41 @@ TEST(SurfaceCvtTest, AnisotropicCellsAreTheSameOnAnyThreadCount) {
     EXPECT_EQ(label, reference) << threads << " threads";
     EXPECT_EQ(stats.energy, first.energy) << threads << " threads";
   }
+}
+
+// A smoothing twin (the GPU's on a GPU job; here the CPU's passes) runs while
+// the walk to the sharp vertices runs on its own thread: the same cells as
+// the passes in line, on any thread count; a twin that fails fails the CVT.
+TEST(SurfaceCvtTest, SmoothingTwinBesideTheWalkGivesTheSameCells) {
+  const Mesh input = box(1, 0.7, 0.4, 16);
+  const std::vector<float> ones(input.vertex_count(), 1.0f);
+  auto refined = refine_surface(input, ones, 1, 0.015, 10'000'000);
+  ASSERT_TRUE(refined.ok());
+  const std::vector<double> mass = vertex_areas(refined->mesh);
+  CvtOptions options;
+  options.anisotropy = kDefaultAnisotropy * diagonal(input);
+  std::vector<uint32_t> reference;
+  CvtStats first;
+  ASSERT_TRUE(surface_cvt(refined->mesh, mass, 900, options, &reference, &first).ok());
+  std::atomic<int> calls{0};
+  options.device_smoothing = [&calls](const MeshEdges& edges, int passes, std::vector<Vec3d>* values) {
+    ++calls;
+    return cpu::smooth_over_edges(edges, passes, values);
+  };
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<uint32_t> label;
+    CvtStats stats;
+    ASSERT_TRUE(surface_cvt(refined->mesh, mass, 900, options, &label, &stats).ok());
+    EXPECT_EQ(label, reference) << threads << " threads";
+    EXPECT_EQ(stats.energy, first.energy) << threads << " threads";
+  }
+  EXPECT_EQ(calls.load(), 3);
+  options.device_smoothing = [](const MeshEdges&, int, std::vector<Vec3d>*) {
+    return Status(StatusCode::kInternal, "device lost");
+  };
+  std::vector<uint32_t> label;
+  EXPECT_FALSE(surface_cvt(refined->mesh, mass, 900, options, &label, nullptr).ok());
 }
 
 }  // namespace
