@@ -1160,8 +1160,9 @@ TEST(SurfaceCvtTest, AnisotropicCellsAreTheSameOnAnyThreadCount) {
 }
 
 // A smoothing twin (the GPU's on a GPU job; here the CPU's passes) runs while
-// the walk to the sharp vertices runs on its own thread: the same cells as
-// the passes in line, on any thread count; a twin that fails fails the CVT.
+// the walk to the sharp vertices and the plan (parts, quotas, loops, seeds)
+// run on threads of their own: the same cells as all in line, cold and from
+// a warm start, on any thread count; a twin that fails fails the CVT.
 TEST(SurfaceCvtTest, SmoothingTwinBesideTheWalkGivesTheSameCells) {
   const Mesh input = box(1, 0.7, 0.4, 16);
   const std::vector<float> ones(input.vertex_count(), 1.0f);
@@ -1187,6 +1188,18 @@ TEST(SurfaceCvtTest, SmoothingTwinBesideTheWalkGivesTheSameCells) {
     EXPECT_EQ(stats.energy, first.energy) << threads << " threads";
   }
   EXPECT_EQ(calls.load(), 3);
+  // Warm, from the cells of a run at fewer cells (cut up to the count).
+  std::vector<uint32_t> coarse, warm_inline, warm_beside;
+  CvtOptions plain;
+  plain.anisotropy = options.anisotropy;
+  ASSERT_TRUE(surface_cvt(refined->mesh, mass, 800, plain, &coarse, nullptr).ok());
+  plain.start_label = &coarse;
+  ASSERT_TRUE(surface_cvt(refined->mesh, mass, 900, plain, &warm_inline, nullptr).ok());
+  CvtOptions twin = options;
+  twin.start_label = &coarse;
+  ASSERT_TRUE(surface_cvt(refined->mesh, mass, 900, twin, &warm_beside, nullptr).ok());
+  EXPECT_EQ(warm_beside, warm_inline);
+  EXPECT_NE(warm_beside, reference);  // the warm start went its own way
   options.device_smoothing = [](const MeshEdges&, int, std::vector<Vec3d>*) {
     return Status(StatusCode::kInternal, "device lost");
   };

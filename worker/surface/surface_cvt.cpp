@@ -17,9 +17,9 @@
 #include <unordered_map>
 
 #include "core/collect_in_order.h"
-#include "core/vertex_ranges.h"
 #include "core/rng.h"
 #include "core/vec3.h"
+#include "core/vertex_ranges.h"
 #include "surface/cell_growth.h"
 #include "surface/cvt_sweep_kernels.h"
 #include "surface/edge_parts.h"
@@ -568,170 +568,186 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     });
     if (cache) cache->normal = vertex_normal;
   }
-  // The normal half of each element's position in R^6 (zero: isotropic).
+  // The normal half of each element's position in R^6 (zero: isotropic),
+  // and the plan below (the parts, their quotas, the boundary loops and the
+  // seeds), which do not depend on each other. On a GPU job, whose host
+  // would wait for the device's smoothing passes, the plan is made on its
+  // own thread meanwhile (igea at 10,000 on an H200: 17 ms of it beside 13
+  // of offsets); on the CPU one after the other, both being parallel loops.
   std::vector<Vec3d> y;
-  VPR_RETURN_IF_ERROR(anisotropic_offsets(mesh, adj, x, vertex_normal, count, options.anisotropy,
-                                          options.device_smoothing, cache, &y));
-  if (cache_lock) cache_lock.unlock();
+  EdgeParts found;
+  size_t parts = 0;
+  std::vector<uint32_t> loop_of, label(nv, UINT32_MAX), seeds;
+  std::vector<std::vector<uint32_t>> loops;
+  uint32_t start_cells = 0;
+  auto plan = [&]() -> Status {
+    // Connected parts (elements with mass only; isolated vertices have none),
+    // numbered by lowest element (edge_parts.h); each part's mass summed in
+    // element order.
+    found = edge_parts(adj);
+    const std::vector<uint32_t>& part = found.part;
+    const std::vector<std::vector<uint32_t>>& part_elements = found.elements;
+    std::vector<double> part_mass(part_elements.size(), 0.0);
+    for (uint32_t v = 0; v < nv; ++v)
+      if (part[v] != UINT32_MAX) part_mass[part[v]] += mass[v];
+    parts = part_mass.size();
+    size_t elements = 0;
+    for (const auto& e : part_elements) elements += e.size();
+    if (elements < count)
+      return invalid_argument("surface CVT: " + std::to_string(count) +
+                              " clusters need at least as many elements, got " + std::to_string(elements));
 
-  // Connected parts (elements with mass only; isolated vertices have none),
-  // numbered by lowest element (edge_parts.h); each part's mass summed in
-  // element order.
-  EdgeParts found = edge_parts(adj);
-  const std::vector<uint32_t>& part = found.part;
-  const std::vector<std::vector<uint32_t>>& part_elements = found.elements;
-  std::vector<double> part_mass(part_elements.size(), 0.0);
-  for (uint32_t v = 0; v < nv; ++v)
-    if (part[v] != UINT32_MAX) part_mass[part[v]] += mass[v];
-  const size_t parts = part_mass.size();
-  size_t elements = 0;
-  for (const auto& e : part_elements) elements += e.size();
-  if (elements < count)
-    return invalid_argument("surface CVT: " + std::to_string(count) + " clusters need at least as many elements, got " +
-                            std::to_string(elements));
-
-  // Clusters per part: a part's relative error depends on its own cluster
-  // count, not on its size (curvature scales as 1/size), so a share of the
-  // target in proportion to mass alone leaves small parts a few flat cells.
-  // Each part gets (1 - s) of the target by mass plus s shared equally
-  // (s = equal_part_share), at least min_per_part (or all its elements)
-  // where the target allows; largest remainders first. One part, or parts of
-  // equal mass, get exactly the mass share.
-  const double total_mass = std::accumulate(part_mass.begin(), part_mass.end(), 0.0);
-  // Groups of parts joined at a split pinch share one equal share, split
-  // between them by mass (each group's parts joined, the root its lowest part).
-  std::vector<uint32_t> group(parts);
-  std::iota(group.begin(), group.end(), 0u);
-  auto root = [&](uint32_t p) {
-    while (group[p] != p) p = group[p] = group[group[p]];
-    return p;
-  };
-  for (const auto& [a, b] : options.joined_elements) {
-    if (a >= nv || b >= nv || part[a] == UINT32_MAX || part[b] == UINT32_MAX) continue;
-    const uint32_t ra = root(part[a]), rb = root(part[b]);
-    if (ra != rb) group[std::max(ra, rb)] = std::min(ra, rb);
-  }
-  std::vector<double> group_mass(parts, 0.0);
-  size_t groups = 0;
-  for (uint32_t p = 0; p < parts; ++p) {
-    group_mass[root(p)] += part_mass[p];
-    groups += root(p) == p;
-  }
-  std::vector<uint32_t> quota(parts, 0);
-  {
-    std::vector<uint32_t> floor_of(parts);
-    uint64_t floors = 0;
-    for (size_t p = 0; p < parts; ++p) {
-      floor_of[p] = uint32_t(std::min<size_t>(options.min_per_part, part_elements[p].size()));
-      floors += floor_of[p];
+    // Clusters per part: a part's relative error depends on its own cluster
+    // count, not on its size (curvature scales as 1/size), so a share of the
+    // target in proportion to mass alone leaves small parts a few flat cells.
+    // Each part gets (1 - s) of the target by mass plus s shared equally
+    // (s = equal_part_share), at least min_per_part (or all its elements)
+    // where the target allows; largest remainders first. One part, or parts of
+    // equal mass, get exactly the mass share.
+    const double total_mass = std::accumulate(part_mass.begin(), part_mass.end(), 0.0);
+    // Groups of parts joined at a split pinch share one equal share, split
+    // between them by mass (each group's parts joined, the root its lowest part).
+    std::vector<uint32_t> group(parts);
+    std::iota(group.begin(), group.end(), 0u);
+    auto root = [&](uint32_t p) {
+      while (group[p] != p) p = group[p] = group[group[p]];
+      return p;
+    };
+    for (const auto& [a, b] : options.joined_elements) {
+      if (a >= nv || b >= nv || part[a] == UINT32_MAX || part[b] == UINT32_MAX) continue;
+      const uint32_t ra = root(part[a]), rb = root(part[b]);
+      if (ra != rb) group[std::max(ra, rb)] = std::min(ra, rb);
     }
-    const bool minimum_fits = floors <= count;
-    uint64_t assigned = 0;
-    std::vector<std::pair<double, size_t>> remainder;
-    for (size_t p = 0; p < parts; ++p) {
-      const double by_mass = total_mass > 0 ? part_mass[p] / total_mass : 1.0 / double(parts);
-      const double equal = options.equal_part_share;
-      const double in_group = group_mass[root(uint32_t(p))] > 0 ? part_mass[p] / group_mass[root(uint32_t(p))] : 1.0;
-      const double share = double(count) * ((1.0 - equal) * by_mass + equal / double(groups) * in_group);
-      quota[p] = std::min<uint32_t>(uint32_t(share), uint32_t(part_elements[p].size()));
-      if (minimum_fits) quota[p] = std::max(quota[p], floor_of[p]);
-      assigned += quota[p];
-      remainder.push_back({share - std::floor(share), p});
+    std::vector<double> group_mass(parts, 0.0);
+    size_t groups = 0;
+    for (uint32_t p = 0; p < parts; ++p) {
+      group_mass[root(p)] += part_mass[p];
+      groups += root(p) == p;
     }
-    std::sort(remainder.begin(), remainder.end(), [](auto a, auto b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
-    // Too many (the minimum took some): take back from the largest parts; too few: give by remainder.
-    while (assigned > count) {
-      size_t largest = 0;
-      for (size_t p = 1; p < parts; ++p)
-        if (quota[p] > quota[largest]) largest = p;
-      --quota[largest];
-      --assigned;
-    }
-    for (size_t i = 0; assigned < count; i = (i + 1) % parts) {
-      const size_t p = remainder[i].second;
-      if (quota[p] < part_elements[p].size()) {
-        ++quota[p];
-        ++assigned;
+    std::vector<uint32_t> quota(parts, 0);
+    {
+      std::vector<uint32_t> floor_of(parts);
+      uint64_t floors = 0;
+      for (size_t p = 0; p < parts; ++p) {
+        floor_of[p] = uint32_t(std::min<size_t>(options.min_per_part, part_elements[p].size()));
+        floors += floor_of[p];
+      }
+      const bool minimum_fits = floors <= count;
+      uint64_t assigned = 0;
+      std::vector<std::pair<double, size_t>> remainder;
+      for (size_t p = 0; p < parts; ++p) {
+        const double by_mass = total_mass > 0 ? part_mass[p] / total_mass : 1.0 / double(parts);
+        const double equal = options.equal_part_share;
+        const double in_group = group_mass[root(uint32_t(p))] > 0 ? part_mass[p] / group_mass[root(uint32_t(p))] : 1.0;
+        const double share = double(count) * ((1.0 - equal) * by_mass + equal / double(groups) * in_group);
+        quota[p] = std::min<uint32_t>(uint32_t(share), uint32_t(part_elements[p].size()));
+        if (minimum_fits) quota[p] = std::max(quota[p], floor_of[p]);
+        assigned += quota[p];
+        remainder.push_back({share - std::floor(share), p});
+      }
+      std::sort(remainder.begin(), remainder.end(),
+                [](auto a, auto b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
+      // Too many (the minimum took some): take back from the largest parts; too few: give by remainder.
+      while (assigned > count) {
+        size_t largest = 0;
+        for (size_t p = 1; p < parts; ++p)
+          if (quota[p] > quota[largest]) largest = p;
+        --quota[largest];
+        --assigned;
+      }
+      for (size_t i = 0; assigned < count; i = (i + 1) % parts) {
+        const size_t p = remainder[i].second;
+        if (quota[p] < part_elements[p].size()) {
+          ++quota[p];
+          ++assigned;
+        }
+      }
+      if (stats) {
+        stats->parts = parts;
+        stats->parts_below_minimum = 0;
+        for (size_t p = 0; p < parts; ++p) stats->parts_below_minimum += quota[p] < floor_of[p];
       }
     }
-    if (stats) {
-      stats->parts = parts;
-      stats->parts_below_minimum = 0;
-      for (size_t p = 0; p < parts; ++p) stats->parts_below_minimum += quota[p] < floor_of[p];
-    }
-  }
 
-  // Boundary loops: each gets min_per_loop seeds spread along it (so the
-  // dual keeps it open), taken from its part's quota.
-  std::vector<uint32_t> loop_of;
-  std::vector<std::vector<uint32_t>> loops;
-  boundary_loops(adj, &loop_of, &loops);
-  std::vector<uint32_t> label(nv, UINT32_MAX);
-  // A warm start (CvtOptions::start_label) takes the earlier run's cells as
-  // they are; otherwise seeds, and cells grown from them.
-  uint32_t start_cells = 0;
-  if (options.start_label) {
-    if (options.start_label->size() != nv) return invalid_argument("surface CVT: one start label per element expected");
-    for (uint32_t v = 0; v < nv; ++v) {
-      const uint32_t l = (*options.start_label)[v];
-      if (l != UINT32_MAX && (l >= nv || adj.degree(v) == 0))
-        return invalid_argument("surface CVT: the start labels are not of this surface");
-      if (l != UINT32_MAX) start_cells = std::max(start_cells, l + 1);
+    // Boundary loops: each gets min_per_loop seeds spread along it (so the
+    // dual keeps it open), taken from its part's quota.
+    boundary_loops(adj, &loop_of, &loops);
+    // A warm start (CvtOptions::start_label) takes the earlier run's cells as
+    // they are; otherwise seeds, and cells grown from them.
+    if (options.start_label) {
+      if (options.start_label->size() != nv)
+        return invalid_argument("surface CVT: one start label per element expected");
+      for (uint32_t v = 0; v < nv; ++v) {
+        const uint32_t l = (*options.start_label)[v];
+        if (l != UINT32_MAX && (l >= nv || adj.degree(v) == 0))
+          return invalid_argument("surface CVT: the start labels are not of this surface");
+        if (l != UINT32_MAX) start_cells = std::max(start_cells, l + 1);
+      }
     }
-  }
+    if (start_cells == 0) {
+      for (const auto& loop : loops) {
+        const uint32_t p = part[loop[0]];
+        const size_t k = std::min<size_t>(options.min_per_loop, quota[p]);
+        if (k < options.min_per_loop) continue;  // the part's quota cannot keep it open
+        for (uint32_t v : spread_on_loop(adj, loop_of, loop, k)) {
+          label[v] = uint32_t(seeds.size());
+          seeds.push_back(v);
+          --quota[p];
+        }
+      }
+      // The rest: per part, stratified in proportion to mass. Along the part's
+      // elements in Morton order (morton_order.h) the mass accumulates to M; a
+      // seed goes where it crosses (u + k) M / q, k = 0 .. q - 1, one offset u
+      // per part (Philox keyed by the seed: the same on every machine and thread
+      // count). Each stretch of the curve holding M / q of the mass is a compact
+      // piece of the surface, so the seeds start spread evenly by mass, where
+      // independent draws clump and leave gaps. Against independent draws on
+      // the 15 shared models at two counts each (30 runs, 2026-11-27): the
+      // sweeps start at 14-21% lower energy and end lower in 27 of 30 runs
+      // (median -0.8%, from -4.6% to +0.7%), in 25% fewer sweeps (798 against
+      // 1,062), with 131 topology splits in all, not 222 (docs/quality.md).
+      const Aabb box = bounding_box(mesh);
+      const Vec3d lo{box.lo[0], box.lo[1], box.lo[2]};
+      const double extent = std::max({double(box.hi[0]) - lo.x, double(box.hi[1]) - lo.y, double(box.hi[2]) - lo.z});
+      auto weight = [&](uint32_t v) { return std::max(mass[v], 1e-300); };  // every element holds some of the curve
+      for (size_t p = 0; p < parts; ++p) {
+        if (quota[p] == 0) continue;
+        const std::vector<uint32_t> order = morton_order(x, part_elements[p], lo, extent);
+        double total = 0;
+        for (uint32_t v : order) total += weight(v);
+        const Philox4 r = random4(options.seed, p, 0);
+        const double offset = (double(r.v[0]) + double(r.v[1]) / 4294967296.0) / 4294967296.0;  // [0, 1)
+        const double step = total / quota[p];
+        double below = 0;  // mass of order[0 .. i)
+        size_t i = 0;
+        for (uint32_t k = 0; k < quota[p]; ++k) {
+          const double u = (offset + k) * step;
+          while (i + 1 < order.size() && below + weight(order[i]) <= u) below += weight(order[i++]);
+          // A taken element (a loop's seed, or a heavy element that holds
+          // several steps): the next free one along the curve (always exists:
+          // quota <= size).
+          size_t j = i;
+          while (label[order[j]] != UINT32_MAX) j = (j + 1) % order.size();
+          label[order[j]] = uint32_t(seeds.size());
+          seeds.push_back(order[j]);
+        }
+      }
+    }
+    return Status::Ok();
+  };
+  std::future<Status> planned;
+  if (options.device_smoothing) planned = std::async(std::launch::async, plan);
+  const Status offsets =
+      anisotropic_offsets(mesh, adj, x, vertex_normal, count, options.anisotropy, options.device_smoothing, cache, &y);
+  if (cache_lock) cache_lock.unlock();
+  const Status planned_status = planned.valid() ? planned.get() : offsets.ok() ? plan() : Status::Ok();
+  VPR_RETURN_IF_ERROR(offsets);
+  VPR_RETURN_IF_ERROR(planned_status);
+  const std::vector<uint32_t>& part = found.part;
   const bool warm = start_cells > 0;
   if (warm) {
     label = *options.start_label;
   } else {
-    std::vector<uint32_t> seeds;
-    for (const auto& loop : loops) {
-      const uint32_t p = part[loop[0]];
-      const size_t k = std::min<size_t>(options.min_per_loop, quota[p]);
-      if (k < options.min_per_loop) continue;  // the part's quota cannot keep it open
-      for (uint32_t v : spread_on_loop(adj, loop_of, loop, k)) {
-        label[v] = uint32_t(seeds.size());
-        seeds.push_back(v);
-        --quota[p];
-      }
-    }
-    // The rest: per part, stratified in proportion to mass. Along the part's
-    // elements in Morton order (morton_order.h) the mass accumulates to M; a
-    // seed goes where it crosses (u + k) M / q, k = 0 .. q - 1, one offset u
-    // per part (Philox keyed by the seed: the same on every machine and thread
-    // count). Each stretch of the curve holding M / q of the mass is a compact
-    // piece of the surface, so the seeds start spread evenly by mass, where
-    // independent draws clump and leave gaps. Against independent draws on
-    // the 15 shared models at two counts each (30 runs, 2026-11-27): the
-    // sweeps start at 14-21% lower energy and end lower in 27 of 30 runs
-    // (median -0.8%, from -4.6% to +0.7%), in 25% fewer sweeps (798 against
-    // 1,062), with 131 topology splits in all, not 222 (docs/quality.md).
-    const Aabb box = bounding_box(mesh);
-    const Vec3d lo{box.lo[0], box.lo[1], box.lo[2]};
-    const double extent = std::max({double(box.hi[0]) - lo.x, double(box.hi[1]) - lo.y, double(box.hi[2]) - lo.z});
-    auto weight = [&](uint32_t v) { return std::max(mass[v], 1e-300); };  // every element holds some of the curve
-    for (size_t p = 0; p < parts; ++p) {
-      if (quota[p] == 0) continue;
-      const std::vector<uint32_t> order = morton_order(x, part_elements[p], lo, extent);
-      double total = 0;
-      for (uint32_t v : order) total += weight(v);
-      const Philox4 r = random4(options.seed, p, 0);
-      const double offset = (double(r.v[0]) + double(r.v[1]) / 4294967296.0) / 4294967296.0;  // [0, 1)
-      const double step = total / quota[p];
-      double below = 0;  // mass of order[0 .. i)
-      size_t i = 0;
-      for (uint32_t k = 0; k < quota[p]; ++k) {
-        const double u = (offset + k) * step;
-        while (i + 1 < order.size() && below + weight(order[i]) <= u) below += weight(order[i++]);
-        // A taken element (a loop's seed, or a heavy element that holds
-        // several steps): the next free one along the curve (always exists:
-        // quota <= size).
-        size_t j = i;
-        while (label[order[j]] != UINT32_MAX) j = (j + 1) % order.size();
-        label[order[j]] = uint32_t(seeds.size());
-        seeds.push_back(order[j]);
-      }
-    }
-
     // Grow the cells from the seeds over the edges to the nearest seed
     // (cell_growth.h), on the device beside the sweeps' when given.
     CellGrowthInput grow;
