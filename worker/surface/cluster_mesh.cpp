@@ -19,8 +19,8 @@
 
 #include "core/collect_in_order.h"
 #include "core/mesh_parts.h"
+#include "core/range_lists.h"
 #include "core/vec3.h"
-#include "core/vertex_ranges.h"
 #include "surface/dual_projection.h"
 #include "surface/edge_flips.h"
 
@@ -402,17 +402,19 @@ DualSurface dual_surface(const Mesh& surface, const MeshEdges& edges, bool with_
         }
     });
     // The corners in order, each edge's first two faces kept: by ranges of
-    // edge entries, one per thread (vertex_ranges.h), each edge's corners
+    // edge entries, one per thread (core/range_lists.h), each edge's corners
     // still met in corner order.
     std::vector<std::array<uint32_t, 2>> faces_of(edges.neighbor.size(), {UINT32_MAX, UINT32_MAX});
-    in_vertex_ranges(faces_of.size(), [&](uint32_t lo, uint32_t hi) {
-      for (size_t i = 0; i < 3 * nf; ++i) {
-        const uint32_t e = edge_of[i];
-        if (e < lo || e >= hi) continue;  // another range's, or no edge
-        auto& two = faces_of[e];
-        (two[0] == UINT32_MAX ? two[0] : two[1]) = uint32_t(i / 3);
-      }
-    });
+    in_item_ranges(
+        faces_of.size(), 3 * nf, [&](size_t i, auto&& emit) { emit(edge_of[i]); },
+        [&](uint32_t lo, uint32_t hi, const RangeSources& corners) {
+          corners.each([&](size_t i) {
+            const uint32_t e = edge_of[i];
+            if (e < lo || e >= hi) return;  // another range's, or no edge
+            auto& two = faces_of[e];
+            (two[0] == UINT32_MAX ? two[0] : two[1]) = uint32_t(i / 3);
+          });
+        });
     // A sharp edge: faces more than 30 degrees apart (the flips' crease),
     // tested per edge in parallel, with each face's unit normal made once
     // (the planes' normal; a face of no area, whose plane has none, its
@@ -544,15 +546,20 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     if (facts.normal.size() != nf) face_planes(surface, &normal_made, &area_made);
     const std::vector<Vec3d>& normal = facts.normal.size() == nf ? facts.normal : normal_made;
     const std::vector<double>& face_area = facts.normal.size() == nf ? facts.area : area_made;
-    // Each cell's faces, in face order: by ranges of cells, one per thread.
-    in_vertex_ranges(
-        count,
-        [&](uint32_t lo, uint32_t hi) {
-          for (size_t f = 0; f < nf; ++f)
+    // Each cell's faces, in face order: by ranges of cells, one per thread
+    // (core/range_lists.h).
+    in_item_ranges(
+        count, nf,
+        [&](size_t f, auto&& emit) {
+          if (face_area[f] > 0) for_each_cell_of(&surface.indices[3 * f], emit);
+        },
+        [&](uint32_t lo, uint32_t hi, const RangeSources& faces) {
+          faces.each([&](size_t f) {
             if (face_area[f] > 0)
               for_each_cell_of(&surface.indices[3 * f], [&](uint32_t cell) {
                 if (cell >= lo && cell < hi) cell_faces[cell].face.push_back(uint32_t(f));
               });
+          });
         },
         256);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 16), [&](const tbb::blocked_range<uint32_t>& r) {
