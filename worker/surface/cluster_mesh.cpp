@@ -21,6 +21,7 @@
 #include "core/mesh_parts.h"
 #include "core/range_lists.h"
 #include "core/vec3.h"
+#include "core/vertex_ranges.h"
 #include "surface/dual_projection.h"
 #include "surface/edge_flips.h"
 
@@ -402,19 +403,17 @@ DualSurface dual_surface(const Mesh& surface, const MeshEdges& edges, bool with_
         }
     });
     // The corners in order, each edge's first two faces kept: by ranges of
-    // edge entries, one per thread (core/range_lists.h), each edge's corners
+    // edge entries, one per thread (vertex_ranges.h), each edge's corners
     // still met in corner order.
     std::vector<std::array<uint32_t, 2>> faces_of(edges.neighbor.size(), {UINT32_MAX, UINT32_MAX});
-    in_item_ranges(
-        faces_of.size(), 3 * nf, [&](size_t i, auto&& emit) { emit(edge_of[i]); },
-        [&](uint32_t lo, uint32_t hi, const RangeSources& corners) {
-          corners.each([&](size_t i) {
-            const uint32_t e = edge_of[i];
-            if (e < lo || e >= hi) return;  // another range's, or no edge
-            auto& two = faces_of[e];
-            (two[0] == UINT32_MAX ? two[0] : two[1]) = uint32_t(i / 3);
-          });
-        });
+    in_vertex_ranges(faces_of.size(), [&](uint32_t lo, uint32_t hi) {
+      for (size_t i = 0; i < 3 * nf; ++i) {
+        const uint32_t e = edge_of[i];
+        if (e < lo || e >= hi) continue;  // another range's, or no edge
+        auto& two = faces_of[e];
+        (two[0] == UINT32_MAX ? two[0] : two[1]) = uint32_t(i / 3);
+      }
+    });
     // A sharp edge: faces more than 30 degrees apart (the flips' crease),
     // tested per edge in parallel, with each face's unit normal made once
     // (the planes' normal; a face of no area, whose plane has none, its

@@ -17,7 +17,6 @@
 #include <unordered_map>
 
 #include "core/collect_in_order.h"
-#include "core/range_lists.h"
 #include "core/rng.h"
 #include "core/vec3.h"
 #include "core/vertex_ranges.h"
@@ -29,13 +28,6 @@
 
 namespace vpr {
 namespace {
-
-// A face's corners, for in_item_ranges (core/range_lists.h).
-auto corners_of(const Mesh& mesh) {
-  return [&mesh](size_t f, auto&& emit) {
-    for (int k = 0; k < 3; ++k) emit(mesh.indices[3 * f + size_t(k)]);
-  };
-}
 
 // A cell holds no element whose normal is more than 100 degrees from the
 // way the cell faces (its seed's normal while the cells grow, the mean of
@@ -519,20 +511,18 @@ SlabSchedule slab_schedule(const std::vector<Vec3d>& x, const Adjacency& adj, co
 
 std::vector<double> vertex_areas(const Mesh& mesh) {
   std::vector<double> area(mesh.vertex_count(), 0.0);
-  // Each vertex's faces in face order (core/range_lists.h).
-  in_item_ranges(mesh.vertex_count(), mesh.face_count(), corners_of(mesh),
-                 [&](uint32_t lo, uint32_t hi, const RangeSources& faces) {
-                   faces.each([&](size_t f) {
-                     const uint32_t* t = &mesh.indices[3 * f];
-                     const bool mine[3] = {t[0] >= lo && t[0] < hi, t[1] >= lo && t[1] < hi, t[2] >= lo && t[2] < hi};
-                     if (!mine[0] && !mine[1] && !mine[2]) return;
-                     const Vec3d a = load3d(mesh.positions.data(), t[0]), b = load3d(mesh.positions.data(), t[1]),
-                                 c = load3d(mesh.positions.data(), t[2]);
-                     const double third = norm(cross(b - a, c - a)) / 6.0;
-                     for (int k = 0; k < 3; ++k)
-                       if (mine[k]) area[t[k]] += third;
-                   });
-                 });
+  in_vertex_ranges(mesh.vertex_count(), [&](uint32_t lo, uint32_t hi) {  // each vertex's faces in face order
+    for (size_t f = 0; f < mesh.face_count(); ++f) {
+      const uint32_t* t = &mesh.indices[3 * f];
+      const bool mine[3] = {t[0] >= lo && t[0] < hi, t[1] >= lo && t[1] < hi, t[2] >= lo && t[2] < hi};
+      if (!mine[0] && !mine[1] && !mine[2]) continue;
+      const Vec3d a = load3d(mesh.positions.data(), t[0]), b = load3d(mesh.positions.data(), t[1]),
+                  c = load3d(mesh.positions.data(), t[2]);
+      const double third = norm(cross(b - a, c - a)) / 6.0;
+      for (int k = 0; k < 3; ++k)
+        if (mine[k]) area[t[k]] += third;
+    }
+  });
   return area;
 }
 
@@ -562,16 +552,15 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     vertex_normal = cache->normal;
   } else {
     vertex_normal.assign(nv, Vec3d{0, 0, 0});
-    // Each vertex's faces in face order (core/range_lists.h).
-    in_item_ranges(nv, mesh.face_count(), corners_of(mesh), [&](uint32_t lo, uint32_t hi, const RangeSources& faces) {
-      faces.each([&](size_t f) {
+    in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {  // each vertex's faces in face order (core/vertex_ranges.h)
+      for (size_t f = 0; f < mesh.face_count(); ++f) {
         const uint32_t* t = &mesh.indices[3 * f];
         const bool mine[3] = {t[0] >= lo && t[0] < hi, t[1] >= lo && t[1] < hi, t[2] >= lo && t[2] < hi};
-        if (!mine[0] && !mine[1] && !mine[2]) return;
+        if (!mine[0] && !mine[1] && !mine[2]) continue;
         const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
         for (int k = 0; k < 3; ++k)
           if (mine[k]) vertex_normal[t[k]] = vertex_normal[t[k]] + n;
-      });
+      }
     });
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t v = r.begin(); v != r.end(); ++v)
@@ -796,21 +785,21 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     std::fill(loop_clusters.begin(), loop_clusters.end(), 0);
     loops_of_cluster.assign(clusters_now, 0);
     // Each cell's sums over its elements in element order, by ranges of
-    // cells, one per thread (core/range_lists.h); the constant's terms in
+    // cells, one per thread (core/vertex_ranges.h); the constant's terms in
     // parallel and their sum in element order: the bits of one loop.
-    in_item_ranges(
-        clusters_now, nv, [&](size_t v, auto&& emit) { emit(label[v]); },
-        [&](uint32_t lo, uint32_t hi, const RangeSources& elements) {
-          elements.each([&](size_t v) {
+    in_vertex_ranges(
+        clusters_now,
+        [&](uint32_t lo, uint32_t hi) {
+          for (uint32_t v = 0; v < nv; ++v) {
             const uint32_t l = label[v];
-            if (l < lo || l >= hi) return;  // another range's, or unlabelled
+            if (l < lo || l >= hi) continue;  // another range's, or unlabelled
             Cluster& c = clusters[l];
             c.m += mass[v];
             c.s = c.s + x[v] * mass[v];
             c.t = c.t + y[v] * mass[v];
             c.n = c.n + vertex_normal[v] * mass[v];
             ++c.size;
-          });
+          }
         },
         256);
     std::vector<double> term(nv);
