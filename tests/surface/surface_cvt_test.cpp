@@ -1133,21 +1133,38 @@ TEST(SurfaceCvtTest, SameCellsAndMeshOnAnyThreadCount) {
 // walk whose rings are listed in whatever order the threads reach them: the
 // cells must not depend on it. A box's edges and corners are sharp, and its
 // many rings meet (0.04 of the diagonal, as a job; 900 cells).
-TEST(SurfaceCvtTest, AnisotropicCellsAreTheSameOnAnyThreadCount) {
+// A box refined as a job refines it, its elements' areas as masses and a
+// job's anisotropy: the case of the tests below (900 cells).
+struct AnisotropicBox {
+  Mesh mesh;
+  std::vector<double> mass;
+  CvtOptions options;
+};
+AnisotropicBox anisotropic_box() {
   const Mesh input = box(1, 0.7, 0.4, 16);
   const std::vector<float> ones(input.vertex_count(), 1.0f);
   auto refined = refine_surface(input, ones, 1, 0.015, 10'000'000);
-  ASSERT_TRUE(refined.ok());
-  const std::vector<double> mass = vertex_areas(refined->mesh);
-  CvtOptions options;
-  options.anisotropy = kDefaultAnisotropy * diagonal(input);
+  EXPECT_TRUE(refined.ok());
+  AnisotropicBox b;
+  if (!refined.ok()) return b;
+  b.mesh = refined->mesh;
+  b.mass = vertex_areas(b.mesh);
+  b.options.anisotropy = kDefaultAnisotropy * diagonal(input);
+  return b;
+}
+
+TEST(SurfaceCvtTest, AnisotropicCellsAreTheSameOnAnyThreadCount) {
+  const AnisotropicBox b = anisotropic_box();
+  ASSERT_GT(b.mesh.face_count(), 0u);
+  const std::vector<double>& mass = b.mass;
+  const CvtOptions& options = b.options;
   std::vector<uint32_t> reference;
   CvtStats first;
   for (int threads : {1, 2, 4, 8}) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     std::vector<uint32_t> label;
     CvtStats stats;
-    ASSERT_TRUE(surface_cvt(refined->mesh, mass, 900, options, &label, &stats).ok());
+    ASSERT_TRUE(surface_cvt(b.mesh, mass, 900, options, &label, &stats).ok());
     if (threads == 1) {
       reference = label;
       first = stats;
@@ -1164,16 +1181,14 @@ TEST(SurfaceCvtTest, AnisotropicCellsAreTheSameOnAnyThreadCount) {
 // run on threads of their own: the same cells as all in line, cold and from
 // a warm start, on any thread count; a twin that fails fails the CVT.
 TEST(SurfaceCvtTest, SmoothingTwinBesideTheWalkGivesTheSameCells) {
-  const Mesh input = box(1, 0.7, 0.4, 16);
-  const std::vector<float> ones(input.vertex_count(), 1.0f);
-  auto refined = refine_surface(input, ones, 1, 0.015, 10'000'000);
-  ASSERT_TRUE(refined.ok());
-  const std::vector<double> mass = vertex_areas(refined->mesh);
-  CvtOptions options;
-  options.anisotropy = kDefaultAnisotropy * diagonal(input);
+  const AnisotropicBox b = anisotropic_box();
+  ASSERT_GT(b.mesh.face_count(), 0u);
+  const Mesh& mesh = b.mesh;
+  const std::vector<double>& mass = b.mass;
+  CvtOptions options = b.options;
   std::vector<uint32_t> reference;
   CvtStats first;
-  ASSERT_TRUE(surface_cvt(refined->mesh, mass, 900, options, &reference, &first).ok());
+  ASSERT_TRUE(surface_cvt(mesh, mass, 900, options, &reference, &first).ok());
   std::atomic<int> calls{0};
   options.device_smoothing = [&calls](const MeshEdges& edges, int passes, std::vector<Vec3d>* values) {
     ++calls;
@@ -1183,7 +1198,7 @@ TEST(SurfaceCvtTest, SmoothingTwinBesideTheWalkGivesTheSameCells) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     std::vector<uint32_t> label;
     CvtStats stats;
-    ASSERT_TRUE(surface_cvt(refined->mesh, mass, 900, options, &label, &stats).ok());
+    ASSERT_TRUE(surface_cvt(mesh, mass, 900, options, &label, &stats).ok());
     EXPECT_EQ(label, reference) << threads << " threads";
     EXPECT_EQ(stats.energy, first.energy) << threads << " threads";
   }
@@ -1192,19 +1207,19 @@ TEST(SurfaceCvtTest, SmoothingTwinBesideTheWalkGivesTheSameCells) {
   std::vector<uint32_t> coarse, warm_inline, warm_beside;
   CvtOptions plain;
   plain.anisotropy = options.anisotropy;
-  ASSERT_TRUE(surface_cvt(refined->mesh, mass, 800, plain, &coarse, nullptr).ok());
+  ASSERT_TRUE(surface_cvt(mesh, mass, 800, plain, &coarse, nullptr).ok());
   plain.start_label = &coarse;
-  ASSERT_TRUE(surface_cvt(refined->mesh, mass, 900, plain, &warm_inline, nullptr).ok());
+  ASSERT_TRUE(surface_cvt(mesh, mass, 900, plain, &warm_inline, nullptr).ok());
   CvtOptions twin = options;
   twin.start_label = &coarse;
-  ASSERT_TRUE(surface_cvt(refined->mesh, mass, 900, twin, &warm_beside, nullptr).ok());
+  ASSERT_TRUE(surface_cvt(mesh, mass, 900, twin, &warm_beside, nullptr).ok());
   EXPECT_EQ(warm_beside, warm_inline);
   EXPECT_NE(warm_beside, reference);  // the warm start went its own way
   options.device_smoothing = [](const MeshEdges&, int, std::vector<Vec3d>*) {
     return Status(StatusCode::kInternal, "device lost");
   };
   std::vector<uint32_t> label;
-  EXPECT_FALSE(surface_cvt(refined->mesh, mass, 900, options, &label, nullptr).ok());
+  EXPECT_FALSE(surface_cvt(mesh, mass, 900, options, &label, nullptr).ok());
 }
 
 }  // namespace
