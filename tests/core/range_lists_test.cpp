@@ -16,6 +16,8 @@
 #include <set>
 #include <vector>
 
+#include "scatter_case.h"
+
 namespace vpr {
 namespace {
 
@@ -24,13 +26,9 @@ TEST(RangeLists, ScatteredSumsAreTheSerialLoopsOnAnyThreadCount) {
   // every 97th face, an item past the end, which no range takes), each
   // adding a value whose rounding depends on the order of the additions.
   const size_t nv = 100000, nf = 300000;
-  std::vector<uint32_t> corner(3 * nf);
-  uint64_t state = 12345;
-  for (size_t i = 0; i < corner.size(); ++i) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    corner[i] = i % 291 == 0 ? uint32_t(nv + i % 5) : uint32_t((state >> 33) % nv);
-  }
-  auto value = [](size_t f) { return std::sin(double(f)) * 1e3 + 1.0 / double(f + 1); };
+  std::vector<uint32_t> corner = testing::random_corners(nv, nf);
+  for (size_t i = 0; i < corner.size(); i += 291) corner[i] = uint32_t(nv + i % 5);
+  auto value = testing::order_sensitive_value;
   std::vector<double> serial(nv, 0.0);
   for (size_t f = 0; f < nf; ++f)
     for (int k = 0; k < 3; ++k)

@@ -12,6 +12,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "scatter_case.h"
+
 namespace vpr {
 namespace {
 
@@ -19,13 +21,8 @@ TEST(VertexRanges, ScatteredSumsAreTheSerialLoopsOnAnyThreadCount) {
   // 300,000 "faces" of three pseudo-random vertices among 100,000, each
   // adding a value whose rounding depends on the order of the additions.
   const size_t nv = 100000, nf = 300000;
-  std::vector<uint32_t> corner(3 * nf);
-  uint64_t state = 12345;
-  for (uint32_t& c : corner) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    c = uint32_t((state >> 33) % nv);
-  }
-  auto value = [](size_t f) { return std::sin(double(f)) * 1e3 + 1.0 / double(f + 1); };
+  const std::vector<uint32_t> corner = testing::random_corners(nv, nf);
+  auto value = testing::order_sensitive_value;
   std::vector<double> serial(nv, 0.0);
   for (size_t f = 0; f < nf; ++f)
     for (int k = 0; k < 3; ++k) serial[corner[3 * f + k]] += value(f);

@@ -59,8 +59,7 @@ constexpr size_t kListedRanges = 4;
 // in_vertex_ranges': the same count and bounds.
 template <class ItemsOf, class Body>
 void in_item_ranges(size_t item_count, size_t source_count, ItemsOf&& items_of, Body&& body, size_t min_range = 16384) {
-  const size_t ranges =
-      std::max<size_t>(1, std::min<size_t>({job_threads(), item_count / min_range, kMaxVertexRanges}));
+  const size_t ranges = vertex_range_count(item_count, min_range);
   if (ranges < kListedRanges || source_count >= UINT32_MAX) {
     tbb::parallel_for(size_t(0), ranges, [&](size_t r) {
       body(uint32_t(item_count * r / ranges), uint32_t(item_count * (r + 1) / ranges), RangeSources::all(source_count));

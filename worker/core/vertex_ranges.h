@@ -38,11 +38,16 @@ inline size_t job_threads() {
   return std::min<size_t>(share, tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
 }
 
+// How many ranges a loop over vertex_count items gets: one per thread this
+// job may count on, at least min_range items each, at most kMaxVertexRanges.
+inline size_t vertex_range_count(size_t vertex_count, size_t min_range) {
+  return std::max<size_t>(1, std::min<size_t>({job_threads(), vertex_count / min_range, kMaxVertexRanges}));
+}
+
 // body(lo, hi): the loop, applying only the updates of vertices in [lo, hi).
 template <class Body>
 void in_vertex_ranges(size_t vertex_count, Body&& body, size_t min_range = 16384) {
-  const size_t ranges =
-      std::max<size_t>(1, std::min<size_t>({job_threads(), vertex_count / min_range, kMaxVertexRanges}));
+  const size_t ranges = vertex_range_count(vertex_count, min_range);
   tbb::parallel_for(size_t(0), ranges, [&](size_t r) {
     body(uint32_t(vertex_count * r / ranges), uint32_t(vertex_count * (r + 1) / ranges));
   });
