@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "surface/cvt_sweep_kernels.h"
+#include "surface/cvt_sweeps_setup.h"
 #include "surface/surface_cvt.h"
 #include "test_meshes.h"
 
@@ -169,6 +170,55 @@ TEST(CvtColourSweeps, RoundsLowerTheEnergyAndKeepEveryCellWhole) {
     ASSERT_TRUE(cpu::cvt_colour_sweeps(p.input(), &again, &again_out).ok());
     EXPECT_EQ(again, label) << threads << " threads";
     EXPECT_EQ(again_out.energy, out.energy) << threads << " threads";
+  }
+}
+
+// The rounds weigh only elements with a neighbour in another cell
+// (cvt_on_cell_edge): every element they skip is one cvt_best_move would
+// not move, on the start's cells and on cells scattered at random (where
+// most elements lie on some cell's edge), with and without the loop rule.
+TEST(CvtColourSweeps, ElementsInsideTheirCellsHaveNoMove) {
+  const Problem p = make_problem(4, 0.6, 60);
+  const CvtSweepInput in = p.input();
+  const uint32_t nv = uint32_t(p.x.size());
+  std::vector<uint32_t> scattered(nv);
+  uint64_t state = 12345;
+  for (uint32_t v = 0; v < nv; ++v) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    const bool moved = p.start[v] != kNoCell && (state >> 40) % 4 == 0;  // elements without mass keep no cell
+    scattered[v] = moved ? uint32_t((state >> 20) % p.cells) : p.start[v];
+  }
+  for (const std::vector<uint32_t>* label : {&p.start, static_cast<const std::vector<uint32_t>*>(&scattered)}) {
+    std::vector<long long> sums(size_t(p.cells) * kCvtSums, 0);
+    std::vector<uint32_t> size(p.cells, 0);
+    const CvtFixedScale scale = cvt_fixed_scale(in, *label);
+    for (uint32_t v = 0; v < nv; ++v) {
+      if ((*label)[v] == kNoCell) continue;
+      long long c[kCvtSums];
+      cvt_contribution(p.mass[v], p.x[v], p.y[v], p.normal[v], scale, c);
+      for (int k = 0; k < kCvtSums; ++k) sums[size_t((*label)[v]) * kCvtSums + k] += c[k];
+      ++size[(*label)[v]];
+    }
+    size_t inside = 0, edge = 0, moves = 0;
+    for (uint32_t v = 0; v < nv; ++v) {
+      long long c[kCvtSums];
+      cvt_contribution(p.mass[v], p.x[v], p.y[v], p.normal[v], scale, c);
+      for (bool on_loop : {false, true}) {
+        const uint32_t best =
+            cvt_best_move(p.edges.offset.data(), p.edges.neighbor.data(), p.edges.faces.data(), label->data(),
+                          sums.data(), size.data(), scale, cvt_sums(c, scale), p.normal[v], on_loop, v, 0.0);
+        if (cvt_on_cell_edge(p.edges.offset.data(), p.edges.neighbor.data(), label->data(), v)) {
+          edge += !on_loop;
+          moves += best != kNoCell;
+        } else {
+          inside += !on_loop;
+          EXPECT_EQ(best, kNoCell) << "element " << v;
+        }
+      }
+    }
+    EXPECT_GT(inside, 100u);
+    EXPECT_GT(edge, 100u);
+    EXPECT_GT(moves, 10u);  // the rule is not vacuous: edge elements do move
   }
 }
 

@@ -129,6 +129,8 @@ VPR_HD inline uint64_t cvt_colour_rank(uint32_t v) {
 }
 
 inline constexpr uint8_t kUncoloured = 0xFF;
+// Colours 0..63, and 64 for an element every colour is taken around.
+inline constexpr uint32_t kCvtColourSlots = 65;
 
 // One round for element v: its colour (the smallest its coloured neighbours
 // do not use) when it outranks every neighbour uncoloured before the round,
@@ -148,6 +150,19 @@ VPR_HD inline uint8_t cvt_colour_in_round(const uint32_t* offset, const uint32_t
   uint8_t c = 0;
   while (c < 64 && (used >> c & 1)) ++c;
   return c;  // 64: every colour taken (degree 64 or more): the colour sweeps never move it
+}
+
+// Whether some neighbour of v lies in another cell: else cvt_best_move finds
+// no cell for v (most elements, inside their cells), and a round need not
+// weigh v's move at all.
+VPR_HD inline bool cvt_on_cell_edge(const uint32_t* offset, const uint32_t* neighbor, const uint32_t* label,
+                                    uint32_t v) {
+  const uint32_t a = label[v];
+  for (uint32_t i = offset[v]; i < offset[v + 1]; ++i) {
+    const uint32_t b = label[neighbor[i]];
+    if (b != a && b != kNoCell) return true;
+  }
+  return false;
 }
 
 // Element v's move this round: the neighbouring cell with the largest gain

@@ -75,29 +75,41 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
     return in.constant + lane[0];
   };
 
-  std::vector<uint32_t> move(nv, kNoCell);
+  // The elements of each colour, ascending (the GPU twin's lists).
+  std::vector<uint32_t> colour_start(kCvtColourSlots + 1, 0), by_colour(nv);
+  for (uint32_t v = 0; v < nv; ++v) ++colour_start[colour[v] + 1];
+  for (uint32_t k = 0; k < kCvtColourSlots; ++k) colour_start[k + 1] += colour_start[k];
+  {
+    std::vector<uint32_t> fill(colour_start.begin(), colour_start.end() - 1);
+    for (uint32_t v = 0; v < nv; ++v) by_colour[fill[colour[v]]++] = v;
+  }
+  std::vector<uint32_t> move(nv, kNoCell);  // per entry of a colour's list
   double previous = energy();
   for (int sweep = 0; sweep < in.max_sweeps; ++sweep) {
     const double threshold = 1e-18 * std::abs(previous);
     size_t moved = 0;
     for (uint32_t k = 0; k < colours; ++k) {
-      tbb::parallel_for(uint32_t(0), nv, [&](uint32_t v) {
-        move[v] = kNoCell;
-        if (colour[v] != k) return;
+      const uint32_t* list = by_colour.data() + colour_start[k];
+      const uint32_t count = colour_start[k + 1] - colour_start[k];
+      tbb::parallel_for(uint32_t(0), count, [&](uint32_t i) {
+        const uint32_t v = list[i];
+        move[i] = kNoCell;
+        if (!cvt_on_cell_edge(offset, neighbor, label.data(), v)) return;
         const CvtSums e = cvt_sums(&contribution[size_t(v) * kCvtSums], scale);
-        move[v] = cvt_best_move(offset, neighbor, faces, label.data(), sums.data(), size.data(), scale, e, in.normal[v],
+        move[i] = cvt_best_move(offset, neighbor, faces, label.data(), sums.data(), size.data(), scale, e, in.normal[v],
                                 in.on_loop[v] != 0, v, threshold);
       });
-      for (uint32_t v = 0; v < nv; ++v) {
-        if (move[v] == kNoCell) continue;
+      for (uint32_t i = 0; i < count; ++i) {
+        if (move[i] == kNoCell) continue;
+        const uint32_t v = list[i];
         const long long* c = &contribution[size_t(v) * kCvtSums];
         for (int j = 0; j < kCvtSums; ++j) {
           sums[size_t(label[v]) * kCvtSums + j] -= c[j];
-          sums[size_t(move[v]) * kCvtSums + j] += c[j];
+          sums[size_t(move[i]) * kCvtSums + j] += c[j];
         }
         --size[label[v]];
-        ++size[move[v]];
-        label[v] = move[v];
+        ++size[move[i]];
+        label[v] = move[i];
         ++moved;
       }
     }
