@@ -8,8 +8,10 @@
 
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "gpu/cuda_check.h"
+#include "gpu/staged_upload.h"
 
 namespace vpr::cuda {
 
@@ -66,7 +68,7 @@ class DeviceBuffer {
   // allocate(count) and copy `count` elements from host memory.
   Status upload(const T* host, size_t count, const ExecContext& ctx) {
     VPR_RETURN_IF_ERROR(allocate(count, ctx));
-    if (count) VPR_CUDA_TRY(cudaMemcpyAsync(ptr_, host, count * sizeof(T), cudaMemcpyHostToDevice, stream_));
+    if (count) VPR_RETURN_IF_ERROR(staged_upload(ptr_, host, count * sizeof(T), stream_));  // gpu/staged_upload.h
     return Status::Ok();
   }
 
@@ -103,6 +105,32 @@ class DeviceBuffer {
   size_t count_ = 0;
   cudaStream_t stream_ = nullptr;
   DeviceBudget* budget_ = nullptr;
+};
+
+// Several host arrays into their device buffers with one staged upload
+// (gpu/staged_upload.h): add() allocates each buffer at once, run() copies
+// them all. An allocation that fails is what run() returns.
+class UploadBatch {
+ public:
+  explicit UploadBatch(const ExecContext& ctx) : ctx_(ctx) {}
+
+  template <class T>
+  UploadBatch& add(DeviceBuffer<T>* buffer, const T* host, size_t count) {
+    if (!status_.ok()) return *this;
+    status_ = buffer->allocate(count, ctx_);
+    if (status_.ok() && count) parts_.push_back({buffer->get(), host, count * sizeof(T)});
+    return *this;
+  }
+
+  Status run() {
+    VPR_RETURN_IF_ERROR(status_);
+    return staged_upload(parts_, stream_of(ctx_));
+  }
+
+ private:
+  const ExecContext& ctx_;
+  Status status_ = Status::Ok();
+  std::vector<StagedPart> parts_;
 };
 
 }  // namespace vpr::cuda

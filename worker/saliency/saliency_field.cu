@@ -165,11 +165,10 @@ Status saliency_field(const float* vertices, size_t vertex_count, const float* s
   const cudaStream_t stream = stream_of(ctx);
   DeviceBuffer<float> nodes;
   VPR_RETURN_IF_ERROR(nodes.allocate(3 * n, ctx));
-  VPR_CUDA_TRY(cudaMemcpyAsync(nodes.get(), saliency_points, 3 * saliency_point_count * sizeof(float),
-                               cudaMemcpyHostToDevice, stream));
+  VPR_RETURN_IF_ERROR(staged_upload(nodes.get(), saliency_points, 3 * saliency_point_count * sizeof(float), stream));
   if (vertex_count > 0)
-    VPR_CUDA_TRY(cudaMemcpyAsync(nodes.get() + 3 * saliency_point_count, vertices, 3 * vertex_count * sizeof(float),
-                                 cudaMemcpyHostToDevice, stream));
+    VPR_RETURN_IF_ERROR(
+        staged_upload(nodes.get() + 3 * saliency_point_count, vertices, 3 * vertex_count * sizeof(float), stream));
 
   DeviceBuffer<uint32_t> neighbors;
   VPR_RETURN_IF_ERROR(build_graph(nodes.get(), n, options.k, &neighbors, ctx));

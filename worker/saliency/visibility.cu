@@ -88,8 +88,8 @@ Status view_visibility(const float* vertices, size_t n, const std::vector<View>&
   DeviceBuffer<float> d_depth;
   VPR_RETURN_IF_ERROR(d_depth.allocate(pixels * views.size(), ctx));
   for (size_t i = 0; i < views.size(); ++i)
-    VPR_CUDA_TRY(cudaMemcpyAsync(d_depth.get() + i * pixels, snapshots[i].depth.pixels.data(), pixels * sizeof(float),
-                                 cudaMemcpyHostToDevice, stream_of(ctx)));
+    VPR_RETURN_IF_ERROR(staged_upload(d_depth.get() + i * pixels, snapshots[i].depth.pixels.data(),
+                                      pixels * sizeof(float), stream_of(ctx)));
   return view_visibility_on_device(vertices, n, sized, d_depth.get(), options, visibility, ctx);
 }
 
