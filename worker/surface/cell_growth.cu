@@ -85,12 +85,14 @@ Status grow_cells(const CellGrowthInput& in, std::vector<uint32_t>* label_io, co
   DeviceBuffer<Vec3d> d_x, d_normal;
   DeviceBuffer<double> d_dist, d_best_dist;
   DeviceBuffer<uint8_t> d_front, d_settled;
-  VPR_RETURN_IF_ERROR(d_offset.upload(adj.offset.data(), adj.offset.size(), ctx));
-  VPR_RETURN_IF_ERROR(d_neighbor.upload(adj.neighbor.data(), std::max<size_t>(adj.neighbor.size(), 1), ctx));
-  VPR_RETURN_IF_ERROR(d_seeds.upload(in.seeds->data(), seeds, ctx));
-  VPR_RETURN_IF_ERROR(d_x.upload(in.x, nv, ctx));
-  VPR_RETURN_IF_ERROR(d_normal.upload(in.normal, nv, ctx));
-  VPR_RETURN_IF_ERROR(d_label.upload(label.data(), nv, ctx));
+  VPR_RETURN_IF_ERROR(UploadBatch(ctx)
+                          .add(&d_offset, adj.offset.data(), adj.offset.size())
+                          .add(&d_neighbor, adj.neighbor.data(), adj.neighbor.size())
+                          .add(&d_seeds, in.seeds->data(), seeds)
+                          .add(&d_x, in.x, nv)
+                          .add(&d_normal, in.normal, nv)
+                          .add(&d_label, label.data(), nv)
+                          .run());
   VPR_RETURN_IF_ERROR(d_best_cell.allocate(nv, ctx));
   VPR_RETURN_IF_ERROR(d_best_dist.allocate(nv, ctx));
   VPR_RETURN_IF_ERROR(d_dist.allocate(nv, ctx));

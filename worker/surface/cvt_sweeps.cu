@@ -135,15 +135,17 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
   DeviceBuffer<char> d_on_loop;
   DeviceBuffer<uint8_t> d_colour;
   DeviceBuffer<unsigned long long> d_sums, d_moved;
-  VPR_RETURN_IF_ERROR(d_offset.upload(adj.offset.data(), adj.offset.size(), ctx));
-  VPR_RETURN_IF_ERROR(d_neighbor.upload(adj.neighbor.data(), std::max<size_t>(adj.neighbor.size(), 1), ctx));
-  VPR_RETURN_IF_ERROR(d_faces.upload(adj.faces.data(), std::max<size_t>(adj.faces.size(), 1), ctx));
-  VPR_RETURN_IF_ERROR(d_x.upload(in.x, nv, ctx));
-  VPR_RETURN_IF_ERROR(d_y.upload(in.y, nv, ctx));
-  VPR_RETURN_IF_ERROR(d_normal.upload(in.normal, nv, ctx));
-  VPR_RETURN_IF_ERROR(d_mass.upload(in.mass, nv, ctx));
-  VPR_RETURN_IF_ERROR(d_on_loop.upload(in.on_loop, nv, ctx));
-  VPR_RETURN_IF_ERROR(d_label.upload(label.data(), nv, ctx));
+  VPR_RETURN_IF_ERROR(UploadBatch(ctx)  // 55 MB on igea: one staged upload
+                          .add(&d_offset, adj.offset.data(), adj.offset.size())
+                          .add(&d_neighbor, adj.neighbor.data(), adj.neighbor.size())
+                          .add(&d_faces, adj.faces.data(), adj.faces.size())
+                          .add(&d_x, in.x, nv)
+                          .add(&d_y, in.y, nv)
+                          .add(&d_normal, in.normal, nv)
+                          .add(&d_mass, in.mass, nv)
+                          .add(&d_on_loop, in.on_loop, nv)
+                          .add(&d_label, label.data(), nv)
+                          .run());
   VPR_RETURN_IF_ERROR(d_round.allocate(nv, ctx));
   VPR_RETURN_IF_ERROR(d_move.allocate(nv, ctx));
   VPR_RETURN_IF_ERROR(d_colour.allocate(nv, ctx));

@@ -34,9 +34,11 @@ Status smooth(const MeshEdges& edges, int passes, std::vector<T>* values, const 
   const cudaStream_t stream = stream_of(ctx);
   DeviceBuffer<uint32_t> d_offset, d_neighbor;
   DeviceBuffer<T> a, b;
-  VPR_RETURN_IF_ERROR(d_offset.upload(edges.offset.data(), edges.offset.size(), ctx));
-  VPR_RETURN_IF_ERROR(d_neighbor.upload(edges.neighbor.data(), std::max<size_t>(edges.neighbor.size(), 1), ctx));
-  VPR_RETURN_IF_ERROR(a.upload(values->data(), nv, ctx));
+  VPR_RETURN_IF_ERROR(UploadBatch(ctx)
+                          .add(&d_offset, edges.offset.data(), edges.offset.size())
+                          .add(&d_neighbor, edges.neighbor.data(), edges.neighbor.size())
+                          .add(&a, values->data(), nv)
+                          .run());
   VPR_RETURN_IF_ERROR(b.allocate(nv, ctx));
   for (int pass = 0; pass < passes; ++pass) {
     smooth_kernel<<<blocks_for(nv), kBlock, 0, stream>>>(d_offset.get(), d_neighbor.get(), a.get(), uint32_t(nv),
