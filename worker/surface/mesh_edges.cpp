@@ -21,23 +21,18 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count) 
   // then filled. The rows are sorted below, so the order in which a row's
   // entries land does not matter, and either way of filling gives the same
   // rows on any thread count:
-  // - On 8 threads or more, by ranges of faces with atomic slots: the faces
-  //   are read twice in all.
+  // - On 8 threads or more, by corners: each vertex's corners listed with
+  //   atomic slots (faces read twice), then each row filled from its own
+  //   corners, the corner's next and previous vertex (the same entries as
+  //   the face edges at the vertex: an edge (a, a) gives none).
   // - On fewer, by vertex ranges (core/vertex_ranges.h): each thread reads
   //   every face and keeps its own vertices' entries, with plain increments.
   // Measured on an 800,000-face torus (H200 host, 2026-11-29, ms, none run
-  // first): on 16 threads vertex ranges 36-41, atomic slots 25; on 8, 34-38
-  // and 28-32; on 4, 36-42 and 45-48; on 2, 36-46 and 61-76 (a locked
-  // increment stalls the core's other loads, which few threads cannot hide).
-  auto each_edge = [&](auto&& visit) {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 8192), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t f = r.begin(); f != r.end(); ++f)
-        for (int c = 0; c < 3; ++c) {
-          const uint32_t a = idx[3 * f + c], b = idx[3 * f + (c + 1) % 3];
-          if (a != b) visit(a, b);
-        }
-    });
-  };
+  // first): on 16 threads vertex ranges 36-41, atomic slots per edge end 25;
+  // on 8, 34-38 and 28-32; on 4, 36-42 and 45-48; on 2, 36-46 and 61-76 (a
+  // locked increment stalls the core's other loads, which few threads cannot
+  // hide). Listing corners instead of edge ends halves the locked
+  // increments.
   auto each_end_in = [&](uint32_t lo, uint32_t hi, auto&& visit) {
     for (size_t f = 0; f < nf; ++f)
       for (int c = 0; c < 3; ++c) {
@@ -48,38 +43,56 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count) 
       }
   };
   auto bump = [](uint32_t* slot) { return __atomic_fetch_add(slot, 1u, __ATOMIC_RELAXED); };
-  const bool atomic_slots = job_threads() >= kAtomicSlotThreads;
-  std::vector<uint32_t> start(nv + 1, 0);
-  if (atomic_slots) {
-    each_edge([&](uint32_t a, uint32_t b) {
-      bump(&start[a + 1]);
-      bump(&start[b + 1]);
+  // Row v: raw[begin[v] ..] with length[v] entries.
+  std::vector<uint32_t> begin(nv), length(nv), raw;
+  if (job_threads() >= kAtomicSlotThreads) {
+    std::vector<uint32_t> corners(nv + 1, 0);
+    auto each_corner = [&](auto&& visit) {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nf, 3 * 8192), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t h = r.begin(); h != r.end(); ++h) visit(h);
+      });
+    };
+    each_corner([&](size_t h) { bump(&corners[idx[h] + 1]); });
+    for (size_t v = 0; v < nv; ++v) corners[v + 1] += corners[v];
+    std::vector<uint32_t> corner(3 * nf), fill(corners.begin(), corners.end() - 1);
+    each_corner([&](size_t h) { corner[bump(&fill[idx[h]])] = uint32_t(h); });
+    // Two entries a corner at most: row v in raw from 2 * corners[v].
+    raw.resize(2 * 3 * nf);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v) {
+        begin[v] = 2 * corners[v];
+        uint32_t* row = raw.data() + begin[v];
+        uint32_t n = 0;
+        for (uint32_t i = corners[v]; i < corners[v + 1]; ++i) {
+          const size_t h = corner[i], base = h - h % 3;
+          const uint32_t next = idx[base + (h % 3 + 1) % 3], prev = idx[base + (h % 3 + 2) % 3];
+          if (next != v) row[n++] = next;
+          if (prev != v) row[n++] = prev;
+        }
+        length[v] = n;
+      }
     });
   } else {
+    std::vector<uint32_t> start(nv + 1, 0);
     in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {
       each_end_in(lo, hi, [&](uint32_t v, uint32_t) { ++start[v + 1]; });
     });
-  }
-  for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-  std::vector<uint32_t> raw(start[nv]), fill(start.begin(), start.end() - 1);
-  if (atomic_slots) {
-    each_edge([&](uint32_t a, uint32_t b) {
-      raw[bump(&fill[a])] = b;
-      raw[bump(&fill[b])] = a;
-    });
-  } else {
+    for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+    raw.resize(start[nv]);
+    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
     in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {
       each_end_in(lo, hi, [&](uint32_t v, uint32_t w) { raw[fill[v]++] = w; });
     });
+    for (size_t v = 0; v < nv; ++v) begin[v] = start[v], length[v] = start[v + 1] - start[v];
   }
   // Rows sorted, repeats counted and dropped in place: per row its distinct
   // neighbours, each with the length of its run (the faces using the edge).
   std::vector<uint32_t> runs(raw.size()), distinct(nv + 1, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t v = r.begin(); v != r.end(); ++v) {
-      uint32_t* row = raw.data() + start[v];
-      uint32_t* run = runs.data() + start[v];
-      const size_t n = start[v + 1] - start[v];
+      uint32_t* row = raw.data() + begin[v];
+      uint32_t* run = runs.data() + begin[v];
+      const size_t n = length[v];
       if (n <= 32) {  // most rows (about twice the degree): insertion sort beats std::sort there
         for (size_t i = 1; i < n; ++i) {
           const uint32_t x = row[i];
@@ -109,8 +122,8 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count) 
   e.faces.resize(e.offset[nv]);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t v = r.begin(); v != r.end(); ++v) {
-      std::copy(raw.begin() + start[v], raw.begin() + start[v] + distinct[v + 1], e.neighbor.begin() + e.offset[v]);
-      std::copy(runs.begin() + start[v], runs.begin() + start[v] + distinct[v + 1], e.faces.begin() + e.offset[v]);
+      std::copy(raw.begin() + begin[v], raw.begin() + begin[v] + distinct[v + 1], e.neighbor.begin() + e.offset[v]);
+      std::copy(runs.begin() + begin[v], runs.begin() + begin[v] + distinct[v + 1], e.faces.begin() + e.offset[v]);
     }
   });
   return e;
