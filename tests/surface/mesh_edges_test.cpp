@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <map>
@@ -89,13 +90,58 @@ TEST(MeshEdgesTest, FaceOrderAndThreadCountDoNotMatter) {
   std::shuffle(order.begin(), order.end(), std::mt19937(3));
   std::vector<uint32_t> shuffled;
   for (size_t f : order) shuffled.insert(shuffled.end(), idx.begin() + 3 * f, idx.begin() + 3 * f + 3);
-  // 1-4 threads fill the rows by vertex ranges, 8 by atomic slots (mesh_edges.cpp).
-  for (int threads : {1, 2, 4, 8}) {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+  // 1-4 threads fill the rows by vertex ranges, 8 and 16 from the corners
+  // (mesh_edges.cpp); an arena of that many threads, so that a machine of
+  // fewer cores runs each way too.
+  for (int threads : {1, 2, 4, 8, 16}) {
     SCOPED_TRACE(threads);
-    expect_same(mesh_edges(idx, nv), want);
-    expect_same(mesh_edges(shuffled, nv), want);
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    tbb::task_arena(threads).execute([&] {
+      expect_same(mesh_edges(idx, nv), want);
+      expect_same(mesh_edges(shuffled, nv), want);
+    });
   }
+}
+
+// On 8 threads the rows are made from each vertex's corners, which a caller
+// may keep: every corner once, in its vertex's row, the rows ascending (the
+// vertex's faces in face order, a face with the vertex twice twice in a
+// row); the rows the same as without them. On fewer threads none are made.
+TEST(MeshEdgesTest, CornersByVertexAreEveryCornerInOrder) {
+  const uint32_t nv = 30000;
+  std::vector<uint32_t> idx = messy_faces(nv, 90000, 5);
+  idx.insert(idx.end(), {17, 17, 40, 41, 17, 17});  // faces holding a vertex twice
+  const MeshEdges want = edges_by_map(idx, nv);
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 8);  // over the cores where fewer
+  tbb::task_arena(8).execute([&] {
+    VertexCorners corners;
+    expect_same(mesh_edges(idx, nv, &corners), want);
+    ASSERT_TRUE(corners.built(nv));
+    ASSERT_EQ(corners.corner.size(), idx.size());
+    std::vector<int> seen(idx.size(), 0);
+    size_t misplaced = 0, unordered = 0;
+    for (uint32_t v = 0; v < nv; ++v)
+      for (uint32_t i = corners.offset[v]; i < corners.offset[v + 1]; ++i) {
+        const uint32_t h = corners.corner[i];
+        ++seen[h];
+        misplaced += idx[h] != v;
+        unordered += i > corners.offset[v] && corners.corner[i - 1] >= h;
+      }
+    EXPECT_EQ(misplaced, 0u);
+    EXPECT_EQ(unordered, 0u);
+    EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), std::ptrdiff_t(idx.size()));
+    const size_t last = idx.size() - 6;  // vertex 17's last four corners: both faces, in order
+    EXPECT_TRUE(std::equal(
+        corners.corner.begin() + corners.offset[18] - 4, corners.corner.begin() + corners.offset[18],
+        std::vector<uint32_t>{uint32_t(last), uint32_t(last + 1), uint32_t(last + 4), uint32_t(last + 5)}.begin()));
+  });
+  tbb::task_arena(2).execute([&] {
+    VertexCorners corners;
+    corners.offset = {1, 2, 3};  // cleared: not made on 2 threads
+    expect_same(mesh_edges(idx, nv, &corners), want);
+    EXPECT_FALSE(corners.built(nv));
+    EXPECT_TRUE(corners.offset.empty());
+  });
 }
 
 TEST(MeshEdgesTest, EmptyAndDegenerateMeshesGiveEmptyRows) {

@@ -14,7 +14,7 @@ constexpr size_t kAtomicSlotThreads = 8;
 
 MeshEdges mesh_edges(const Mesh& mesh) { return mesh_edges(mesh.indices, mesh.vertex_count()); }
 
-MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count) {
+MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count, VertexCorners* corners_out) {
   const size_t nv = vertex_count, nf = indices.size() / 3;
   const uint32_t* idx = indices.data();
   // Each face edge into both its ends' rows (repeats included): counted,
@@ -63,6 +63,14 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count) 
         begin[v] = 2 * corners[v];
         uint32_t* row = raw.data() + begin[v];
         uint32_t n = 0;
+        // The row's corners ascending (the slots filled in any order): the
+        // rows below do not need it, VertexCorners does.
+        for (uint32_t i = corners[v] + 1; i < corners[v + 1]; ++i) {
+          const uint32_t h = corner[i];
+          uint32_t j = i;
+          for (; j > corners[v] && corner[j - 1] > h; --j) corner[j] = corner[j - 1];
+          corner[j] = h;
+        }
         for (uint32_t i = corners[v]; i < corners[v + 1]; ++i) {
           const size_t h = corner[i], base = h - h % 3;
           const uint32_t next = idx[base + (h % 3 + 1) % 3], prev = idx[base + (h % 3 + 2) % 3];
@@ -72,7 +80,12 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count) 
         length[v] = n;
       }
     });
+    if (corners_out) {
+      corners_out->offset = std::move(corners);
+      corners_out->corner = std::move(corner);
+    }
   } else {
+    if (corners_out) *corners_out = VertexCorners{};
     std::vector<uint32_t> start(nv + 1, 0);
     in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {
       each_end_in(lo, hi, [&](uint32_t v, uint32_t) { ++start[v + 1]; });

@@ -29,9 +29,19 @@ struct MeshEdges {
   }
 };
 
+// Each vertex's corners (corner 3 f + k: face f's k-th index), ascending, so
+// a row lists the vertex's faces in face order.
+struct VertexCorners {
+  std::vector<uint32_t> offset;  // vertex_count + 1, or empty: not built
+  std::vector<uint32_t> corner;  // row v: offset[v] .. offset[v + 1]
+  bool built(size_t vertex_count) const { return offset.size() == vertex_count + 1; }
+};
+
 // A face's corner repeated (a == b) gives no edge.
 MeshEdges mesh_edges(const Mesh& mesh);
 // The same from an index buffer (three per face) over vertex_count vertices.
-MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count);
+// corners, when given, gets the corners by vertex where the rows were made
+// from them (on 8 threads or more, mesh_edges.cpp), else is left empty.
+MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count, VertexCorners* corners = nullptr);
 
 }  // namespace vpr
