@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -13,6 +14,7 @@
 #include <cstring>
 #include <map>
 #include <numeric>
+#include <random>
 #include <set>
 #include <vector>
 
@@ -1173,6 +1175,44 @@ TEST(SurfaceCvtTest, AnisotropicCellsAreTheSameOnAnyThreadCount) {
     }
     EXPECT_EQ(label, reference) << threads << " threads";
     EXPECT_EQ(stats.energy, first.energy) << threads << " threads";
+  }
+}
+
+// The vertex normals from the corners by vertex (what surface_refine keeps on
+// 8 threads or more) are the ones every face's range gives, bit for bit (a
+// curved surface, where the order of a vertex's sum shows in its last bits):
+// the same cells and energy, isotropic and anisotropic.
+TEST(SurfaceCvtTest, NormalsFromTheCornersGiveTheSameCells) {
+  Mesh sphere = testing::icosphere(5);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> jitter(-0.004f, 0.004f);  // generic normals, no symmetric sums
+  for (float& p : sphere.positions) p += jitter(rng);
+  const std::vector<double> mass = vertex_areas(sphere);
+  VertexCorners corners;
+  MeshEdges edges;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 8);  // over the cores where fewer
+    tbb::task_arena(8).execute([&] { edges = mesh_edges(sphere.indices, sphere.vertex_count(), &corners); });
+  }
+  ASSERT_TRUE(corners.built(sphere.vertex_count()));
+  for (double anisotropy : {0.0, kDefaultAnisotropy * diagonal(sphere)}) {
+    CvtOptions options;
+    options.anisotropy = anisotropy;
+    std::vector<uint32_t> reference, label;
+    CvtStats first, stats;
+    CvtSurfaceCache by_ranges, by_corners;  // each run's normals, to compare bit for bit
+    options.surface_cache = &by_ranges;
+    ASSERT_TRUE(surface_cvt(sphere, edges, mass, 500, options, &reference, &first).ok());
+    options.corners = &corners;
+    options.surface_cache = &by_corners;
+    ASSERT_TRUE(surface_cvt(sphere, edges, mass, 500, options, &label, &stats).ok());
+    ASSERT_EQ(by_corners.normal.size(), sphere.vertex_count());
+    ASSERT_EQ(by_ranges.normal.size(), by_corners.normal.size());
+    EXPECT_EQ(std::memcmp(by_ranges.normal.data(), by_corners.normal.data(), by_ranges.normal.size() * sizeof(Vec3d)),
+              0);
+    EXPECT_EQ(label, reference) << "anisotropy " << anisotropy;
+    EXPECT_EQ(stats.energy, first.energy) << "anisotropy " << anisotropy;
+    EXPECT_GT(stats.moves, 0u);
   }
 }
 

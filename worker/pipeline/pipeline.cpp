@@ -778,6 +778,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
       cvt.seed = options.sampling.seed;
       cvt.anisotropy = options.anisotropy;         // the input has a unit diagonal here
       cvt.joined_elements = refined.pinch_copies;  // parts split at a pinch share one equal share
+      cvt.corners = &refined.corners;
       if (warm.from) cvt.start_label = &warm.from->label;
       if (facts) cvt.surface_cache = &facts->cvt;
       // The sweeps in colour rounds (PipelineOptions::cvt_sweeps) on the

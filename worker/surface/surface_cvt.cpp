@@ -552,16 +552,32 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     vertex_normal = cache->normal;
   } else {
     vertex_normal.assign(nv, Vec3d{0, 0, 0});
-    in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {  // each vertex's faces in face order (core/vertex_ranges.h)
-      for (size_t f = 0; f < mesh.face_count(); ++f) {
-        const uint32_t* t = &mesh.indices[3 * f];
-        const bool mine[3] = {t[0] >= lo && t[0] < hi, t[1] >= lo && t[1] < hi, t[2] >= lo && t[2] < hi};
-        if (!mine[0] && !mine[1] && !mine[2]) continue;
-        const Vec3d n = cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]);
-        for (int k = 0; k < 3; ++k)
-          if (mine[k]) vertex_normal[t[k]] = vertex_normal[t[k]] + n;
-      }
-    });
+    // Each vertex's face normals summed in face order (a face that holds the
+    // vertex twice, twice in a row): from the corners by vertex when given
+    // (one read of each vertex's own faces), else by vertex ranges, each
+    // reading every face (core/vertex_ranges.h). The same sums.
+    auto face_normal = [&](const uint32_t* t) { return cross(x[t[1]] - x[t[0]], x[t[2]] - x[t[0]]); };
+    if (options.corners && options.corners->built(nv)) {
+      const VertexCorners& vc = *options.corners;
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t v = r.begin(); v != r.end(); ++v)
+          for (uint32_t i = vc.offset[v]; i < vc.offset[v + 1]; ++i) {
+            const uint32_t h = vc.corner[i];
+            vertex_normal[v] = vertex_normal[v] + face_normal(&mesh.indices[h - h % 3]);
+          }
+      });
+    } else {
+      in_vertex_ranges(nv, [&](uint32_t lo, uint32_t hi) {
+        for (size_t f = 0; f < mesh.face_count(); ++f) {
+          const uint32_t* t = &mesh.indices[3 * f];
+          const bool mine[3] = {t[0] >= lo && t[0] < hi, t[1] >= lo && t[1] < hi, t[2] >= lo && t[2] < hi};
+          if (!mine[0] && !mine[1] && !mine[2]) continue;
+          const Vec3d n = face_normal(t);
+          for (int k = 0; k < 3; ++k)
+            if (mine[k]) vertex_normal[t[k]] = vertex_normal[t[k]] + n;
+        }
+      });
+    }
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t v = r.begin(); v != r.end(); ++v)
         if (norm(vertex_normal[v]) > 0) vertex_normal[v] = vertex_normal[v] * (1.0 / norm(vertex_normal[v]));

@@ -104,6 +104,10 @@ struct CvtOptions {
   // The surface's normals and offsets from an earlier run on this surface,
   // or filled for a later one (null: made and dropped).
   CvtSurfaceCache* surface_cache = nullptr;
+  // The mesh's corners by vertex (mesh_edges, surface_refine's RefinedSurface),
+  // or null or not built: the vertex normals then read every face per range
+  // of vertices. The same normals either way.
+  const VertexCorners* corners = nullptr;
   // Sweeps in colour rounds to run before each run of the sweeps (cvt_sweeps.h;
   // the pipeline passes the GPU twin), to a quarter of `tolerance` and with
   // max_sweeps of their own: they make the bulk of the moves, and the sweeps

@@ -132,7 +132,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
           }
         });
     if (corners.empty()) {
-      out.edges = mesh_edges(out.mesh.indices, count);
+      out.edges = mesh_edges(out.mesh.indices, count, &out.corners);
       break;
     }
     tbb::parallel_sort(corners.begin(), corners.end());  // distinct keys: one order on any thread count
@@ -232,7 +232,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
     out.mesh.indices = std::move(indices);
     out.face = std::move(face);
   }
-  if (out.edges.offset.empty()) out.edges = mesh_edges(out.mesh.indices, count);  // 64 passes ran out
+  if (out.edges.offset.empty()) out.edges = mesh_edges(out.mesh.indices, count, &out.corners);  // 64 passes ran out
   out.mesh.positions.assign(pos.begin(), pos.end());
   return out;
 }

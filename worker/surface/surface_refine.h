@@ -22,6 +22,7 @@ struct RefinedSurface {
   std::vector<float> value;    // channels per refined vertex: the input's values, linearly interpolated
   std::vector<uint32_t> face;  // per refined face: the input face it lies in
   MeshEdges edges;             // the refined mesh's edges (mesh_edges(mesh)), a by-product of the last pass
+  VertexCorners corners;       // its corners by vertex, when mesh_edges made them (8 threads or more)
   // (copy, original) for each vertex split where fans met (surface/pinch_split.h)
   std::vector<std::pair<uint32_t, uint32_t>> pinch_copies;
   // Where each refined vertex comes from, for carry_values: the welded
