@@ -111,6 +111,8 @@ TEST(MeshEdgesTest, CornersByVertexAreEveryCornerInOrder) {
   const uint32_t nv = 30000;
   std::vector<uint32_t> idx = messy_faces(nv, 90000, 5);
   idx.insert(idx.end(), {17, 17, 40, 41, 17, 17});  // faces holding a vertex twice
+  const size_t holding_17_twice = idx.size() - 6;
+  for (uint32_t k = 0; k < 40; ++k) idx.insert(idx.end(), {100 + k, 5, 101 + k});  // vertex 5: a fan of 40 more
   const MeshEdges want = edges_by_map(idx, nv);
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 8);  // over the cores where fewer
   tbb::task_arena(8).execute([&] {
@@ -130,7 +132,7 @@ TEST(MeshEdgesTest, CornersByVertexAreEveryCornerInOrder) {
     EXPECT_EQ(misplaced, 0u);
     EXPECT_EQ(unordered, 0u);
     EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), std::ptrdiff_t(idx.size()));
-    const size_t last = idx.size() - 6;  // vertex 17's last four corners: both faces, in order
+    const size_t last = holding_17_twice;  // vertex 17's last four corners: both faces, in order
     EXPECT_TRUE(std::equal(
         corners.corner.begin() + corners.offset[18] - 4, corners.corner.begin() + corners.offset[18],
         std::vector<uint32_t>{uint32_t(last), uint32_t(last + 1), uint32_t(last + 4), uint32_t(last + 5)}.begin()));
@@ -142,6 +144,14 @@ TEST(MeshEdgesTest, CornersByVertexAreEveryCornerInOrder) {
     EXPECT_FALSE(corners.built(nv));
     EXPECT_TRUE(corners.offset.empty());
   });
+  // vertex_corners alone: a counting sort on 2 threads, slots and sorted rows
+  // on 8 (vertex 5's row of over 32 corners sorted the other way): the same.
+  VertexCorners two, eight;
+  tbb::task_arena(2).execute([&] { two = vertex_corners(idx, nv); });
+  tbb::task_arena(8).execute([&] { eight = vertex_corners(idx, nv); });
+  EXPECT_GT(two.offset[6] - two.offset[5], 32u);
+  EXPECT_EQ(two.offset, eight.offset);
+  EXPECT_EQ(two.corner, eight.corner);
 }
 
 TEST(MeshEdgesTest, EmptyAndDegenerateMeshesGiveEmptyRows) {

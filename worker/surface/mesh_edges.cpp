@@ -12,6 +12,50 @@ namespace vpr {
 // From this many threads a job fills the rows with atomic slots (below).
 constexpr size_t kAtomicSlotThreads = 8;
 
+VertexCorners vertex_corners(const std::vector<uint32_t>& indices, size_t vertex_count) {
+  const size_t nv = vertex_count, nc = indices.size();
+  const uint32_t* idx = indices.data();
+  VertexCorners vc;
+  vc.offset.assign(nv + 1, 0);
+  vc.corner.resize(nc);
+  if (job_threads() < kAtomicSlotThreads) {  // a counting sort: each row ascending as filled
+    for (size_t h = 0; h < nc; ++h) ++vc.offset[idx[h] + 1];
+    for (size_t v = 0; v < nv; ++v) vc.offset[v + 1] += vc.offset[v];
+    std::vector<uint32_t> fill(vc.offset.begin(), vc.offset.end() - 1);
+    for (size_t h = 0; h < nc; ++h) vc.corner[fill[idx[h]]++] = uint32_t(h);
+    return vc;
+  }
+  // Counted and filled with atomic slots (the corners read twice), then each
+  // row sorted: the slots fill a row in any order.
+  auto bump = [](uint32_t* slot) { return __atomic_fetch_add(slot, 1u, __ATOMIC_RELAXED); };
+  auto each_corner = [&](auto&& visit) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nc, 3 * 8192), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t h = r.begin(); h != r.end(); ++h) visit(h);
+    });
+  };
+  each_corner([&](size_t h) { bump(&vc.offset[idx[h] + 1]); });
+  for (size_t v = 0; v < nv; ++v) vc.offset[v + 1] += vc.offset[v];
+  std::vector<uint32_t> fill(vc.offset.begin(), vc.offset.end() - 1);
+  each_corner([&](size_t h) { vc.corner[bump(&fill[idx[h]])] = uint32_t(h); });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v) {
+      uint32_t* row = vc.corner.data() + vc.offset[v];
+      const size_t n = vc.offset[v + 1] - vc.offset[v];
+      if (n > 32) {  // a fan's apex: never quadratic
+        std::sort(row, row + n);
+        continue;
+      }
+      for (size_t i = 1; i < n; ++i) {
+        const uint32_t h = row[i];
+        size_t j = i;
+        for (; j > 0 && row[j - 1] > h; --j) row[j] = row[j - 1];
+        row[j] = h;
+      }
+    }
+  });
+  return vc;
+}
+
 MeshEdges mesh_edges(const Mesh& mesh) { return mesh_edges(mesh.indices, mesh.vertex_count()); }
 
 MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count, VertexCorners* corners_out) {
@@ -42,20 +86,11 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count, 
         if (b >= lo && b < hi) visit(b, a);
       }
   };
-  auto bump = [](uint32_t* slot) { return __atomic_fetch_add(slot, 1u, __ATOMIC_RELAXED); };
   // Row v: raw[begin[v] ..] with length[v] entries.
   std::vector<uint32_t> begin(nv), length(nv), raw;
   if (job_threads() >= kAtomicSlotThreads) {
-    std::vector<uint32_t> corners(nv + 1, 0);
-    auto each_corner = [&](auto&& visit) {
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, 3 * nf, 3 * 8192), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t h = r.begin(); h != r.end(); ++h) visit(h);
-      });
-    };
-    each_corner([&](size_t h) { bump(&corners[idx[h] + 1]); });
-    for (size_t v = 0; v < nv; ++v) corners[v + 1] += corners[v];
-    std::vector<uint32_t> corner(3 * nf), fill(corners.begin(), corners.end() - 1);
-    each_corner([&](size_t h) { corner[bump(&fill[idx[h]])] = uint32_t(h); });
+    VertexCorners vc = vertex_corners(indices, nv);
+    const std::vector<uint32_t>&corners = vc.offset, &corner = vc.corner;
     // Two entries a corner at most: row v in raw from 2 * corners[v].
     raw.resize(2 * 3 * nf);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
@@ -63,14 +98,6 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count, 
         begin[v] = 2 * corners[v];
         uint32_t* row = raw.data() + begin[v];
         uint32_t n = 0;
-        // The row's corners ascending (the slots filled in any order): the
-        // rows below do not need it, VertexCorners does.
-        for (uint32_t i = corners[v] + 1; i < corners[v + 1]; ++i) {
-          const uint32_t h = corner[i];
-          uint32_t j = i;
-          for (; j > corners[v] && corner[j - 1] > h; --j) corner[j] = corner[j - 1];
-          corner[j] = h;
-        }
         for (uint32_t i = corners[v]; i < corners[v + 1]; ++i) {
           const size_t h = corner[i], base = h - h % 3;
           const uint32_t next = idx[base + (h % 3 + 1) % 3], prev = idx[base + (h % 3 + 2) % 3];
@@ -80,10 +107,7 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count, 
         length[v] = n;
       }
     });
-    if (corners_out) {
-      corners_out->offset = std::move(corners);
-      corners_out->corner = std::move(corner);
-    }
+    if (corners_out) *corners_out = std::move(vc);
   } else {
     if (corners_out) *corners_out = VertexCorners{};
     std::vector<uint32_t> start(nv + 1, 0);

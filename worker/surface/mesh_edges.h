@@ -37,6 +37,11 @@ struct VertexCorners {
   bool built(size_t vertex_count) const { return offset.size() == vertex_count + 1; }
 };
 
+// The corners by vertex of an index buffer over vertex_count vertices: on 8
+// threads or more in parallel (atomic slots, then each row sorted), else a
+// counting sort; the same rows.
+VertexCorners vertex_corners(const std::vector<uint32_t>& indices, size_t vertex_count);
+
 // A face's corner repeated (a == b) gives no edge.
 MeshEdges mesh_edges(const Mesh& mesh);
 // The same from an index buffer (three per face) over vertex_count vertices.

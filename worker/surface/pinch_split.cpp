@@ -1,14 +1,15 @@
 #include "surface/pinch_split.h"
 
-#include <algorithm>
-#include <cmath>
-#include <numeric>
-
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
 #include "core/vec3.h"
+#include "surface/mesh_edges.h"
 
 namespace vpr {
 namespace {
@@ -175,12 +176,9 @@ std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<ui
                                                                    const std::vector<double>& positions) {
   std::vector<uint32_t>& indices = *indices_io;
   const size_t nv = *vertex_count;
-  // Corners by vertex (counting sort: the faces of each vertex ascending).
-  std::vector<uint32_t> offset(nv + 1, 0);
-  for (uint32_t v : indices) ++offset[v + 1];
-  std::partial_sum(offset.begin(), offset.end(), offset.begin());
-  std::vector<uint32_t> corner(indices.size()), fill(offset.begin(), offset.end() - 1);
-  for (size_t c = 0; c < indices.size(); ++c) corner[fill[indices[c]]++] = uint32_t(c);
+  // Corners by vertex (the faces of each vertex ascending: mesh_edges.h).
+  const VertexCorners by_vertex = vertex_corners(indices, nv);
+  const std::vector<uint32_t>&offset = by_vertex.offset, &corner = by_vertex.corner;
 
   std::vector<std::pair<uint32_t, uint32_t>> copies;
   // The vertices whose faces form more than one fan as the mesh comes, found
