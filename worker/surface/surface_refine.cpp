@@ -2,6 +2,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_scan.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
@@ -175,11 +176,22 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
     out.midpoint_ends.insert(out.midpoint_ends.end(), ends.begin(), ends.end());
     out.pass_end.push_back(out.midpoint_ends.size() / 2);
     count += added;
-    // A face with s split edges becomes s + 1 faces.
+    // A face with s split edges becomes s + 1 faces: each face's first slot,
+    // a prefix sum over the faces (in parallel: integers, one result).
     std::vector<uint32_t> slots(faces + 1, 0);
-    for (size_t f = 0; f < faces; ++f)
-      slots[f + 1] =
-          slots[f] + 1 + (mid[3 * f] != UINT32_MAX) + (mid[3 * f + 1] != UINT32_MAX) + (mid[3 * f + 2] != UINT32_MAX);
+    auto pieces = [&](size_t f) {
+      return uint32_t(1 + (mid[3 * f] != UINT32_MAX) + (mid[3 * f + 1] != UINT32_MAX) + (mid[3 * f + 2] != UINT32_MAX));
+    };
+    tbb::parallel_scan(
+        tbb::blocked_range<size_t>(0, faces, 16384), uint32_t(0),
+        [&](const tbb::blocked_range<size_t>& r, uint32_t sum, bool final) {
+          for (size_t f = r.begin(); f != r.end(); ++f) {
+            sum += pieces(f);
+            if (final) slots[f + 1] = sum;
+          }
+          return sum;
+        },
+        [](uint32_t a, uint32_t b) { return a + b; });
     std::vector<uint32_t> indices(3 * size_t(slots[faces]));
     std::vector<uint32_t> face(slots[faces]);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, faces, 4096), [&](const tbb::blocked_range<size_t>& r) {
