@@ -143,7 +143,7 @@ Status staged_upload(void* device, const void* host, size_t bytes, cudaStream_t 
 }
 
 Status staged_upload(const std::vector<StagedPart>& parts, cudaStream_t stream) {
-  // Chunk c of the whole: part_of[c], at byte (c - first[part]) * slot.
+  // Chunks first[p] .. first[p + 1] are part p's: chunk c at byte (c - first[p]) * slot of it.
   std::vector<size_t> first(parts.size() + 1, 0);
   for (size_t p = 0; p < parts.size(); ++p)
     first[p + 1] = first[p] + (parts[p].bytes + kStagingSlotBytes - 1) / kStagingSlotBytes;
