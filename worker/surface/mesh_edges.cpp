@@ -12,6 +12,26 @@ namespace vpr {
 // From this many threads a job fills the rows with atomic slots (below).
 constexpr size_t kAtomicSlotThreads = 8;
 
+namespace {
+
+// A row of a vertex ascending: most rows are short (about the degree, or
+// twice it), where insertion sort beats std::sort; a long one (a fan's apex)
+// by std::sort, never quadratic.
+void sort_row(uint32_t* row, size_t n) {
+  if (n > 32) {
+    std::sort(row, row + n);
+    return;
+  }
+  for (size_t i = 1; i < n; ++i) {
+    const uint32_t x = row[i];
+    size_t j = i;
+    for (; j > 0 && row[j - 1] > x; --j) row[j] = row[j - 1];
+    row[j] = x;
+  }
+}
+
+}  // namespace
+
 VertexCorners vertex_corners(const std::vector<uint32_t>& indices, size_t vertex_count) {
   const size_t nv = vertex_count, nc = indices.size();
   const uint32_t* idx = indices.data();
@@ -41,16 +61,7 @@ VertexCorners vertex_corners(const std::vector<uint32_t>& indices, size_t vertex
     for (size_t v = r.begin(); v != r.end(); ++v) {
       uint32_t* row = vc.corner.data() + vc.offset[v];
       const size_t n = vc.offset[v + 1] - vc.offset[v];
-      if (n > 32) {  // a fan's apex: never quadratic
-        std::sort(row, row + n);
-        continue;
-      }
-      for (size_t i = 1; i < n; ++i) {
-        const uint32_t h = row[i];
-        size_t j = i;
-        for (; j > 0 && row[j - 1] > h; --j) row[j] = row[j - 1];
-        row[j] = h;
-      }
+      sort_row(row, n);
     }
   });
   return vc;
@@ -130,16 +141,7 @@ MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count, 
       uint32_t* row = raw.data() + begin[v];
       uint32_t* run = runs.data() + begin[v];
       const size_t n = length[v];
-      if (n <= 32) {  // most rows (about twice the degree): insertion sort beats std::sort there
-        for (size_t i = 1; i < n; ++i) {
-          const uint32_t x = row[i];
-          size_t j = i;
-          for (; j > 0 && row[j - 1] > x; --j) row[j] = row[j - 1];
-          row[j] = x;
-        }
-      } else {
-        std::sort(row, row + n);
-      }
+      sort_row(row, n);
       size_t kept = 0;
       for (size_t i = 0; i < n;) {
         size_t j = i;
