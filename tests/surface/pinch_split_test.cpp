@@ -297,5 +297,54 @@ TEST(PinchSplit, AFinOnACubeLeavesTheCubeClosed) {
   EXPECT_GE(fin[1], 9u);
 }
 
+// The open edges (one face, or more than two), against a count of each
+// edge's faces, as the mesh came: none on a closed sphere; the fin's foot
+// (three faces) and its two free sides (one each) on the cube with a fin;
+// the rim of an open fan. The same list on any thread count.
+std::vector<std::pair<uint32_t, uint32_t>> open_by_count(const std::vector<uint32_t>& indices) {
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (size_t f = 0; f < indices.size() / 3; ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t a = indices[3 * f + c], b = indices[3 * f + (c + 1) % 3];
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  std::vector<std::pair<uint32_t, uint32_t>> open;
+  for (const auto& [edge, n] : uses)
+    if (n != 2) open.push_back(edge);
+  return open;
+}
+
+TEST(PinchSplit, OpenEdgesAreTheEdgesOfOneFaceOrOfMoreThanTwo) {
+  {
+    const Mesh sphere = testing::icosphere(2);
+    std::vector<uint32_t> indices = sphere.indices;
+    size_t count = sphere.vertex_count();
+    std::vector<std::pair<uint32_t, uint32_t>> open{{1, 2}};
+    split_pinched_vertices(&indices, &count, doubles(sphere.positions), &open);
+    EXPECT_TRUE(open.empty());
+  }
+  std::vector<uint32_t> indices;
+  std::vector<double> positions;
+  add_cube(&indices, &positions, 0, 0);
+  weld(&indices, positions);
+  const uint32_t tip = uint32_t(positions.size() / 3);
+  positions.insert(positions.end(), {0.5, -0.5, 1.5});
+  indices.insert(indices.end(), {4, 5, tip});
+  // An open fan of four faces round a centre, beside the cube.
+  const uint32_t c = uint32_t(positions.size() / 3);
+  positions.insert(positions.end(), {5, 0, 0, 6, 0, 0, 5, 1, 0, 4, 0, 0, 5, -1, 0});
+  indices.insert(indices.end(), {c, c + 1, c + 2, c, c + 2, c + 3, c, c + 3, c + 4, c, c + 4, c + 1});
+  const std::vector<std::pair<uint32_t, uint32_t>> expected = open_by_count(indices);
+  ASSERT_EQ(expected.size(), 3u + 4u);  // the fin's foot and sides, the fan's rim
+  for (int threads : {1, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<uint32_t> split = indices;
+    size_t count = positions.size() / 3;
+    std::vector<std::pair<uint32_t, uint32_t>> open;
+    split_pinched_vertices(&split, &count, positions, &open);
+    EXPECT_EQ(open, expected) << threads << " threads";
+  }
+}
+
 }  // namespace
 }  // namespace vpr

@@ -29,6 +29,9 @@ struct FanFinder {
   std::vector<uint32_t> fan;                          // per slot of v: its fan's root (find)
   std::vector<uint32_t> run_faces;
   std::vector<int> run_forward;
+  // When set: each edge from v to a higher vertex that v's faces use once or
+  // more than twice (an open edge: pinch_split.h), as group(v) meets it.
+  std::vector<std::pair<uint32_t, uint32_t>>* open = nullptr;
 
   Vec3d position(uint32_t i) const {  // a copy sits where its original does
     const size_t o = i < nv ? i : copies[i - nv].second;
@@ -141,6 +144,7 @@ struct FanFinder {
     for (size_t lo = 0; lo < spokes.size();) {
       size_t hi = lo + 1;
       while (hi < spokes.size() && spokes[hi].first == spokes[lo].first) ++hi;
+      if (open && hi - lo != 2 && spokes[lo].first > v) open->push_back({v, spokes[lo].first});
       if (hi - lo == 2) {
         join(spokes[lo].second, spokes[lo + 1].second);
       } else if (hi - lo > 2) {
@@ -173,7 +177,8 @@ struct FanFinder {
 
 std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<uint32_t>* indices_io,
                                                                    size_t* vertex_count,
-                                                                   const std::vector<double>& positions) {
+                                                                   const std::vector<double>& positions,
+                                                                   std::vector<std::pair<uint32_t, uint32_t>>* open_edges) {
   std::vector<uint32_t>& indices = *indices_io;
   const size_t nv = *vertex_count;
   // Corners by vertex (the faces of each vertex ascending: mesh_edges.h).
@@ -187,10 +192,17 @@ std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<ui
   std::vector<char> pinched(nv, 0);
   tbb::enumerable_thread_specific<FanFinder> finders(
       [&] { return FanFinder{indices, offset, corner, positions, copies, nv}; });
+  tbb::enumerable_thread_specific<std::vector<std::pair<uint32_t, uint32_t>>> open;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
     FanFinder& finder = finders.local();
+    finder.open = open_edges ? &open.local() : nullptr;
     for (size_t v = r.begin(); v != r.end(); ++v) pinched[v] = finder.group(uint32_t(v)) > 1;
   });
+  if (open_edges) {
+    open_edges->clear();
+    for (const auto& list : open) open_edges->insert(open_edges->end(), list.begin(), list.end());
+    std::sort(open_edges->begin(), open_edges->end());  // one order on any thread count
+  }
   // Then in vertex order, as the serial walk of every vertex went: a vertex
   // given copies renames its corners in its neighbours' faces, which can
   // change their fans, so a vertex is walked again when it was pinched or a

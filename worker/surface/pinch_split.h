@@ -29,7 +29,13 @@ namespace vpr {
 // original vertex and then of their fan's first face, and vertex_count grows
 // by their number. Returns (copy, original) for each
 // copy, in that order. Faces with a repeated corner are left as they are.
-std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(std::vector<uint32_t>* indices, size_t* vertex_count,
-                                                                   const std::vector<double>& positions);
+// open_edges, when given, gets the mesh's edges (as it came, before any
+// copy) used by one face or by more than two: its rims and the feet of its
+// fins, where the split leaves the surface open. Each as (lower, higher)
+// vertex, ascending; a by-product of the fans' search, which meets every
+// edge at both its ends.
+std::vector<std::pair<uint32_t, uint32_t>> split_pinched_vertices(
+    std::vector<uint32_t>* indices, size_t* vertex_count, const std::vector<double>& positions,
+    std::vector<std::pair<uint32_t, uint32_t>>* open_edges = nullptr);
 
 }  // namespace vpr
