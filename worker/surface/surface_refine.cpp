@@ -13,6 +13,7 @@
 #include "core/collect_in_order.h"
 #include "core/vec3.h"
 #include "surface/pinch_split.h"
+#include "surface/rim_band.h"
 
 namespace vpr {
 namespace {
@@ -24,7 +25,14 @@ Vec3d at(const std::vector<double>& p, uint32_t i) {
 }  // namespace
 
 StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, size_t max_vertices) {
+  return refine_geometry(input, EdgeBounds{max_edge, 0, 0}, max_vertices);
+}
+
+StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bounds, size_t max_vertices) {
+  const double max_edge = bounds.max_edge;
   if (!(max_edge > 0) || !std::isfinite(max_edge)) return invalid_argument("refine: max_edge must be positive");
+  const bool banded = bounds.rim_max_edge > 0 && bounds.rim_max_edge < max_edge && bounds.rim_band > 0 &&
+                      std::isfinite(bounds.rim_band);
   RefinedSurface out;
   out.input_vertices = input.vertex_count();
   size_t count = 0;  // refined vertices
@@ -90,9 +98,23 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
   if (out.mesh.indices.empty()) return invalid_argument("refine: the mesh has no face of positive area");
   // Pinched vertices and edges (sheets that meet at a vertex only, or three
   // or more faces on an edge): a copy per extra fan (surface/pinch_split.h).
-  out.pinch_copies = split_pinched_vertices(&out.mesh.indices, &count, pos);
+  std::vector<std::pair<uint32_t, uint32_t>> open_edges;
+  out.pinch_copies = split_pinched_vertices(&out.mesh.indices, &count, pos, banded ? &open_edges : nullptr);
   for (const auto& [copy, original] : out.pinch_copies)
     for (int c = 0; c < 3; ++c) pos.push_back(pos[3 * size_t(original) + c]);
+  // Per vertex: whether it lies in the rim band (its edges take the finer
+  // bound). A midpoint is tested where it is made: a long rim edge's
+  // midpoints lie on the rim though its ends may be far from each other.
+  const RimBand rim = banded ? RimBand(pos, open_edges, bounds.rim_band) : RimBand();
+  std::vector<char> near_rim;
+  auto mark_rim = [&](size_t begin, size_t end) {
+    near_rim.resize(end, 0);
+    if (rim.empty()) return;
+    tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 1024), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v) near_rim[v] = rim.near(at(pos, uint32_t(v)));
+    });
+  };
+  mark_rim(0, count);
 
   // Passes of midpoint splits: each face keeps its corners' order, so the
   // refined faces keep the input's orientation. New vertices are numbered
@@ -100,9 +122,14 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
   // by corner); the rest of a pass is per face or per new vertex, in
   // parallel, so the result is the same on any thread count.
   const double max2 = max_edge * max_edge;
+  const double rim2 = banded ? bounds.rim_max_edge * bounds.rim_max_edge : max2;
   auto length2 = [&](uint32_t a, uint32_t b) {
     const Vec3d d = at(pos, a) - at(pos, b);
     return dot(d, d);
+  };
+  auto too_long = [&](uint32_t a, uint32_t b) {
+    const double l2 = length2(a, b);
+    return l2 > max2 || (l2 > rim2 && (near_rim[a] || near_rim[b]));
   };
   std::vector<uint32_t> fresh;  // the faces the last pass made
   for (int pass = 0; pass < 64; ++pass) {
@@ -129,7 +156,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
           const size_t f = pass == 0 ? k : fresh[k];
           for (size_t h = 3 * f; h < 3 * f + 3; ++h) {
             const uint32_t a = idx[h], b = successor(h);
-            if (length2(a, b) > max2) list->push_back({uint64_t(std::min(a, b)) << 32 | std::max(a, b), uint32_t(h)});
+            if (too_long(a, b)) list->push_back({uint64_t(std::min(a, b)) << 32 | std::max(a, b), uint32_t(h)});
           }
         });
     if (corners.empty()) {
@@ -164,7 +191,8 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
     });
     const size_t added = ends.size() / 2;
     if (count + added > max_vertices)
-      return resource_exhausted("refining the surface to edges of " + std::to_string(max_edge) + " would need over " +
+      return resource_exhausted("refining the surface to edges of " +
+                                std::to_string(banded ? bounds.rim_max_edge : max_edge) + " would need over " +
                                 std::to_string(max_vertices) + " vertices");
     pos.resize(3 * (count + added));
     tbb::parallel_for(tbb::blocked_range<size_t>(0, added, 4096), [&](const tbb::blocked_range<size_t>& r) {
@@ -175,6 +203,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
     });
     out.midpoint_ends.insert(out.midpoint_ends.end(), ends.begin(), ends.end());
     out.pass_end.push_back(out.midpoint_ends.size() / 2);
+    mark_rim(count, count + added);
     count += added;
     // A face with s split edges becomes s + 1 faces: each face's first slot,
     // a prefix sum over the faces (in parallel: integers, one result).
@@ -279,9 +308,14 @@ Status carry_values(const std::vector<float>& value, int channels, RefinedSurfac
 
 StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<float>& value, int channels,
                                         double max_edge, size_t max_vertices) {
+  return refine_surface(input, value, channels, EdgeBounds{max_edge, 0, 0}, max_vertices);
+}
+
+StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<float>& value, int channels,
+                                        const EdgeBounds& bounds, size_t max_vertices) {
   if (channels < 1 || value.size() != size_t(channels) * input.vertex_count())
     return invalid_argument("refine: `channels` values per vertex expected");
-  VPR_ASSIGN_OR_RETURN(RefinedSurface out, refine_geometry(input, max_edge, max_vertices));
+  VPR_ASSIGN_OR_RETURN(RefinedSurface out, refine_geometry(input, bounds, max_vertices));
   VPR_RETURN_IF_ERROR(carry_values(value, channels, &out));
   return out;
 }

@@ -35,15 +35,29 @@ struct RefinedSurface {
   std::vector<size_t> pass_end;
 };
 
+// How long a refined edge may be: max_edge everywhere, and rim_max_edge
+// where an end lies within rim_band of an open edge (an edge of one face or
+// of more than two, after the weld: surface/rim_band.h). The dual keeps a
+// rim only where its cells hold enough elements along it, which the CVT
+// itself does not need elsewhere (docs/pipeline.md, "5-7").
+struct EdgeBounds {
+  double max_edge = 0;
+  double rim_max_edge = 0;  // <= max_edge; 0: the same bound at rims
+  double rim_band = 0;      // distance from an open edge; 0: no band
+};
+
 // value: `channels` numbers per input vertex (e.g. importance, density),
 // carried to the new vertices. max_vertices bounds the result
 // (RESOURCE_EXHAUSTED past it).
+StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<float>& value, int channels,
+                                        const EdgeBounds& bounds, size_t max_vertices);
 StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<float>& value, int channels,
                                         double max_edge, size_t max_vertices);
 
 // The same in two steps: the geometry (value and channels left empty), which
 // needs no values, so a job can start it before its field exists; then the
 // values carried to the refined vertices, the same bits as refine_surface.
+StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bounds, size_t max_vertices);
 StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, size_t max_vertices);
 Status carry_values(const std::vector<float>& value, int channels, RefinedSurface* refined);
 
