@@ -84,6 +84,18 @@ void add_pipeline_flags(CLI::App* cmd, PipelineOptions& o, PipelineFlagValues& v
                   "least (0: isotropic)")
       ->check(CLI::Range(0.0, 0.5))
       ->capture_default_str();
+  cmd->add_option("--cvt-elements", o.cvt_elements_per_vertex,
+                  "Surface elements per output vertex that the CVT's cells are made of, away from open edges")
+      ->check(CLI::Range(4.0, 64.0))
+      ->capture_default_str();
+  cmd->add_option("--cvt-rim-elements", o.cvt_rim_elements_per_vertex,
+                  "Surface elements per output vertex near open edges (rims, a fin's foot)")
+      ->check(CLI::Range(4.0, 64.0))
+      ->capture_default_str();
+  cmd->add_option("--cvt-rim-band", o.cvt_rim_band,
+                  "How far from an open edge --cvt-rim-elements holds, in output spacings (0: nowhere)")
+      ->check(CLI::Range(0.0, 16.0))
+      ->capture_default_str();
   cmd->add_option("--drop-parts-smaller-than", o.drop_parts_smaller_than,
                   "Leave out connected parts whose bounding-box diagonal is below this share of the model's "
                   "(0: keep every part)")

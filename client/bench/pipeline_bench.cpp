@@ -65,6 +65,7 @@ struct Args {
   bool render_prep_on_gpu = true;
   bool render_interop = true;
   bool dual_projection_on_gpu = true;
+  double cvt_elements = 0, cvt_rim_band = -1;  // the pipeline's defaults unless given
   std::vector<std::pair<std::string, uint32_t>> inputs;
 };
 
@@ -111,6 +112,8 @@ vpr::StatusOr<JobTimes> run_job(const Input& in, vpr::DevicePolicy device, vpr::
   options.render_prep_on_gpu = args.render_prep_on_gpu;
   options.render_interop = args.render_interop;
   options.dual_projection_on_gpu = args.dual_projection_on_gpu;
+  if (args.cvt_elements > 0) options.cvt_elements_per_vertex = args.cvt_elements;
+  if (args.cvt_rim_band >= 0) options.cvt_rim_band = args.cvt_rim_band;
   options.on_stage = [&](const vpr::StageTiming& s) { cpu_lap(s.name); };
   auto result = vpr::run_pipeline(*mesh, options);
   if (!result.ok()) return result.status();
@@ -177,6 +180,10 @@ int parse_args(int argc, char** argv, Args* a) {
       const std::string m = next();
       if (m != "auto" && m != "host") return 2;
       a->dual_projection_on_gpu = m == "auto";
+    } else if (s == "--cvt-elements") {  // surface elements per output vertex away from rims
+      a->cvt_elements = std::stod(next());
+    } else if (s == "--cvt-rim-band") {
+      a->cvt_rim_band = std::stod(next());
     } else if (s == "--peers") {
       a->peers = next();
     } else if (s == "--concurrency") {
@@ -232,6 +239,7 @@ int main(int argc, char** argv) {
                  "usage: vpremesh-bench [--device cpu|cuda|both] [--repeat R] [--threads N] [--density MODE]\n"
                  "                      [--cvt-sweeps auto|rounds|slabs] [--render-prep auto|host]\n"
                  "                      [--render-readback auto|host] [--dual-projection auto|host]\n"
+                 "                      [--cvt-elements K] [--cvt-rim-band SPACINGS]\n"
                  "                      [--peers all|none|LIST] [--concurrency C] [--jobs J] MODEL[@1M]:TARGET ...\n");
     return 2;
   }

@@ -150,13 +150,23 @@ std::vector<float> attention_curvature(const Mesh& input, const AttentionFieldOp
   return std::vector<float>(weighted.begin(), weighted.end());
 }
 
-// The back half's refinement for a level: elements a quarter of the output
-// spacing apart (cvt_elements_per_vertex per output vertex), and its bound.
-double refine_max_edge(double spacing_out, const PipelineOptions& options) {
-  return spacing_out / std::sqrt(options.cvt_elements_per_vertex);
+// The back half's refinement for a level: elements the output spacing over
+// sqrt(cvt_elements_per_vertex) apart, over sqrt(cvt_rim_elements_per_vertex)
+// within cvt_rim_band output spacings of an open edge; and its bound.
+EdgeBounds refine_bounds(double spacing_out, const PipelineOptions& options) {
+  EdgeBounds b;
+  b.max_edge = spacing_out / std::sqrt(options.cvt_elements_per_vertex);
+  if (options.cvt_rim_elements_per_vertex > options.cvt_elements_per_vertex && options.cvt_rim_band > 0) {
+    b.rim_max_edge = spacing_out / std::sqrt(options.cvt_rim_elements_per_vertex);
+    b.rim_band = options.cvt_rim_band * spacing_out;
+  }
+  return b;
+}
+double most_elements_per_vertex(const PipelineOptions& options) {
+  return std::max(options.cvt_elements_per_vertex, options.cvt_rim_elements_per_vertex);
 }
 size_t refine_limit(const Mesh& input, uint32_t target, const PipelineOptions& options) {
-  return input.vertex_count() + size_t(64 * options.cvt_elements_per_vertex) * target;
+  return input.vertex_count() + size_t(64 * most_elements_per_vertex(options)) * target;
 }
 
 // The pipeline runs on a copy of the input centred on its bounding box and
@@ -277,6 +287,11 @@ Status validate_options(const PipelineOptions& o) {
     return invalid_argument("drop-parts-smaller-than must be a share of the model's diagonal in [0, 1]");
   if (!(o.anisotropy >= 0 && o.anisotropy <= 0.5))
     return invalid_argument("anisotropy must be a share of the model's diagonal in [0, 0.5]");
+  if (!(o.cvt_elements_per_vertex >= 4 && o.cvt_elements_per_vertex <= 64) ||
+      !(o.cvt_rim_elements_per_vertex >= 4 && o.cvt_rim_elements_per_vertex <= 64))
+    return invalid_argument("surface elements per output vertex must be in [4, 64]");
+  if (!(o.cvt_rim_band >= 0 && o.cvt_rim_band <= 16))
+    return invalid_argument("the rim band must be in [0, 16] output spacings");
   if (!(o.awlop.mu >= 0 && o.awlop.mu <= 0.5)) return invalid_argument("mu must be in [0, 0.5]");
   if (o.awlop.k < 1 || o.awlop.k > 64) return invalid_argument("AWLOP k must be in [1, 64]");
   if (o.awlop.iterations < 0 || o.awlop.iterations > 200)
@@ -709,7 +724,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             VPR_ASSIGN_OR_RETURN(refined, ahead.get());
             VPR_RETURN_IF_ERROR(carry_values(channels, 2, &refined));
           } else {
-            VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, refine_max_edge(spacing_out, options),
+            VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, refine_bounds(spacing_out, options),
                                                          refine_limit(input, options.target_vertices, options)));
           }
           // Over about two output spacings (elements are a quarter of one
@@ -1319,7 +1334,7 @@ Status run_levels_side_by_side(FrontHalf& front, const Mesh& given, const Pipeli
   // hold the first one up, or run a callback under the lock it waits on).
   std::vector<double> size(counts.size());
   for (size_t i = 0; i < counts.size(); ++i)
-    size[i] = double(front.input.vertex_count()) + options.cvt_elements_per_vertex * double(counts[i]);
+    size[i] = double(front.input.vertex_count()) + most_elements_per_vertex(options) * double(counts[i]);
   const double budget = 2 * *std::max_element(size.begin(), size.end());
   std::mutex admit;
   size_t started = 0;
@@ -1424,11 +1439,11 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
   // it, the same bits as refining there.
   auto refine_ahead = [&](size_t level) {
     if (level >= levels.size() || levels[level].min_ssim > 0 || options.density == DensityMode::kPaper) return;
-    const double max_edge = refine_max_edge(target_spacing(front.area, counts[level]), options);
+    const EdgeBounds bounds = refine_bounds(target_spacing(front.area, counts[level]), options);
     const size_t limit = refine_limit(front.input, counts[level], options);
     const Mesh* input = &front.input;
-    front.refined_ahead.emplace_back(counts[level], std::async(std::launch::async, [input, max_edge, limit] {
-                                       return refine_geometry(*input, max_edge, limit);
+    front.refined_ahead.emplace_back(counts[level], std::async(std::launch::async, [input, bounds, limit] {
+                                       return refine_geometry(*input, bounds, limit);
                                      }));
   };
   refine_ahead(0);

@@ -107,11 +107,15 @@ struct PipelineOptions {
   double anisotropy = 0.04;
   ClusterMeshOptions cluster_mesh;  // the dual's relaxation and L2 fit (cluster_mesh.h)
   // Surface elements per output vertex at the mean spacing (the refinement's
-  // edge length is the target spacing over sqrt of this). 10 or 12 would
-  // take about a third less time on igea -> 10,000 with the same mean SSIM
-  // and FLIP over the referee's 30 cases, but cut a notch into
-  // cube_no_bottom's open rim at 200 vertices (docs/quality.md): 16 stays.
-  double cvt_elements_per_vertex = 16;
+  // edge length is the target spacing over sqrt of this), and within
+  // cvt_rim_band output spacings of an open edge (a rim, a fin's foot). The
+  // CVT holds its mean SSIM and FLIP with 10 (docs/quality.md), but with
+  // 10 at the rim too the dual cut a notch into cube_no_bottom's open rim at
+  // 200 vertices: its cells along a rim need 16 to keep a rim cell between
+  // two others (docs/performance.md, issue 15, session 27).
+  double cvt_elements_per_vertex = 10;
+  double cvt_rim_elements_per_vertex = 16;
+  double cvt_rim_band = 1.5;
   std::string debug_dir;  // when set: per-view PNGs and saliency points as PLY
   // Keep the saliency points' positions in PipelineResult (the service
   // returns them on request; a local run does not pay for the copy).
