@@ -146,6 +146,7 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
                           .add(&d_on_loop, in.on_loop, nv)
                           .add(&d_label, label.data(), nv)
                           .run());
+  if (in.uploaded) in.uploaded();
   VPR_RETURN_IF_ERROR(d_round.allocate(nv, ctx));
   VPR_RETURN_IF_ERROR(d_move.allocate(nv, ctx));
   VPR_RETURN_IF_ERROR(d_colour.allocate(nv, ctx));

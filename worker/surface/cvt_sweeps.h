@@ -42,6 +42,10 @@ struct CvtSweepInput {
   double constant = 0;  // sum m |(x, a n)|^2: E's part no move changes
   double tolerance = 1e-4;
   int max_sweeps = 300;
+  // When set, called once the inputs are on the device: the host's threads,
+  // which the staged upload copies with, are free for other work from then
+  // on (the pipeline starts the dual's facts there). Changes no result.
+  std::function<void()> uploaded;
 };
 
 struct CvtSweepOutput {
