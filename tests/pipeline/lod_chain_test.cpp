@@ -351,6 +351,11 @@ TEST(LodChain, AFailingCutStartNearTheBoundIsConfirmedFromScratch) {
   auto options = [](uint32_t seed) {
     PipelineOptions o = small_views();
     o.sampling.seed = seed;
+    // 16 surface elements per output vertex, as when this case was found: with
+    // the default 10 the first search with a failing cut start is seed 34's,
+    // and what is tested here (the search's confirmation) does not depend on
+    // the elements.
+    o.cvt_elements_per_vertex = 16;
     return o;
   };
   auto run = [&](double confirm, uint32_t seed, std::vector<Judged>* tries) {
