@@ -88,9 +88,9 @@ INSTANTIATE_TEST_SUITE_P(Models, SharedModel,
 
 // An opening is kept exactly, rim included: the output covers the whole input
 // (no notch cut into the rim) and keeps its one boundary loop. The open box
-// at 200 vertices is where too few surface elements per cell (10 instead of
-// the default 16) left a rim cell inside the surface: a notch 6.6% of the
-// diagonal deep (docs/performance.md).
+// at 200 vertices is where too few surface elements per cell (10 everywhere,
+// at 41fe909) left a rim cell inside the surface: a notch 6.6% of the
+// diagonal deep (docs/quality.md); the default keeps 16 near open edges.
 TEST(Pipeline, OpenBoxKeepsItsRimWhole) {
   auto input = read_mesh("../shared/models/cube_no_bottom.obj");
   ASSERT_TRUE(input.ok()) << input.status().to_string();
@@ -278,6 +278,17 @@ TEST(Pipeline, RejectsImpossibleTargetsAndOptionsWithTheLimit) {
   r = run_pipeline(sphere, views);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("6 or 14"), std::string::npos);
+
+  PipelineOptions elements = default_options(1000);
+  elements.cvt_elements_per_vertex = 0;
+  r = run_pipeline(sphere, elements);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("[4, 64]"), std::string::npos) << r.status().message();
+  elements = default_options(1000);
+  elements.cvt_rim_band = std::nan("");
+  r = run_pipeline(sphere, elements);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("[0, 16]"), std::string::npos) << r.status().message();
 
   Mesh cloud = sphere;
   cloud.indices.clear();
