@@ -121,6 +121,21 @@ TEST(RimBand, RefinementIsFinerNearTheRimOnly) {
   }
 }
 
+// Rims longer than the vertex bound allows are refused before the band's
+// grid is made (an upload of long open slivers cannot make it huge), with
+// the bound in the message; the points counted are the grid's.
+TEST(RimBand, RimsPastTheVertexBoundAreRefusedFirst) {
+  const Mesh box = open_box();
+  std::vector<double> pos(box.positions.begin(), box.positions.end());
+  const std::vector<std::pair<uint32_t, uint32_t>> rim{{0, 1}, {1, 2}, {2, 3}, {0, 3}};
+  EXPECT_DOUBLE_EQ(RimBand::points_needed(pos, rim, 0.1), 4 * 21.0);  // 20 steps of 0.05 along each
+  auto refused = refine_geometry(box, EdgeBounds{0.2, 1e-4, 1e-4}, 1000);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code(), StatusCode::kResourceExhausted);
+  EXPECT_NE(refused.status().message().find("4 open edges would need over 1000 vertices"), std::string::npos)
+      << refused.status().message();
+}
+
 // A closed surface has no rim: the band changes nothing.
 TEST(RimBand, AClosedSurfaceRefinesAsWithoutTheBand) {
   Mesh box = open_box();

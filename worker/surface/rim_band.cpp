@@ -25,7 +25,25 @@ double distance2_to_segment(const Vec3d& p, const Vec3d& a, const Vec3d& b) {
   return dot(p - q, p - q);
 }
 
+// Points along a segment of this length: at most radius / 2 apart, both ends.
+double points_along(double length, double radius) { return std::max(std::ceil(length / (0.5 * radius)), 1.0) + 1; }
+
 }  // namespace
+
+double RimBand::points_needed(const std::vector<double>& positions,
+                              const std::vector<std::pair<uint32_t, uint32_t>>& segments, double radius) {
+  if (!(radius > 0) || !std::isfinite(radius)) return 0;
+  double total = 0;
+  for (const auto& [i, j] : segments) {
+    double d2 = 0;
+    for (int c = 0; c < 3; ++c) {
+      const double d = positions[3 * size_t(j) + c] - positions[3 * size_t(i) + c];
+      d2 += d * d;
+    }
+    total += points_along(std::sqrt(d2), radius);
+  }
+  return total;
+}
 
 RimBand::RimBand(const std::vector<double>& positions, const std::vector<std::pair<uint32_t, uint32_t>>& segments,
                  double radius) {
@@ -41,8 +59,7 @@ RimBand::RimBand(const std::vector<double>& positions, const std::vector<std::pa
     // Points at most radius / 2 apart, both ends included: every point of
     // the segment is within radius / 4 of one, so a point within radius of
     // the segment is within 1.25 radius of one, less than a cell's side.
-    const double steps = std::ceil(norm(b - a) / (0.5 * radius));
-    const size_t n = size_t(std::min(std::max(steps, 1.0), 1e7));
+    const size_t n = size_t(std::min(points_along(norm(b - a), radius) - 1, 1e7));
     uint64_t last = UINT64_MAX;
     for (size_t k = 0; k <= n; ++k) {
       const uint64_t cell = cell_of(a + (b - a) * (double(k) / double(n)), 0, 0, 0);

@@ -23,6 +23,12 @@ class RimBand {
   RimBand(const std::vector<double>& positions, const std::vector<std::pair<uint32_t, uint32_t>>& segments,
           double radius);
 
+  // How many grid entries the constructor would list for these segments (at
+  // most; each segment's points in distinct cells count once): callers with
+  // untrusted input bound it before building.
+  static double points_needed(const std::vector<double>& positions,
+                              const std::vector<std::pair<uint32_t, uint32_t>>& segments, double radius);
+
   bool empty() const { return entries_.empty(); }
   // Whether p lies within radius of a segment (the distance to the segment,
   // not to its ends: a long rim edge counts along its whole length).

@@ -105,6 +105,12 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
   // Per vertex: whether it lies in the rim band (its edges take the finer
   // bound). A midpoint is tested where it is made: a long rim edge's
   // midpoints lie on the rim though its ends may be far from each other.
+  // The band's grid holds fewer points than the rims would need vertices at
+  // the finer bound (its points are radius / 2 apart, radius >= the bound in
+  // the pipeline): past the bound the refinement could not finish anyway.
+  if (banded && RimBand::points_needed(pos, open_edges, bounds.rim_band) > double(max_vertices))
+    return resource_exhausted("refining the surface near its " + std::to_string(open_edges.size()) +
+                              " open edges would need over " + std::to_string(max_vertices) + " vertices");
   const RimBand rim = banded ? RimBand(pos, open_edges, bounds.rim_band) : RimBand();
   std::vector<char> near_rim;
   auto mark_rim = [&](size_t begin, size_t end) {
