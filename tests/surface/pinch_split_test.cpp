@@ -275,16 +275,21 @@ TEST(PinchSplit, ADoubleSidedCardBecomesAClosedPillow) {
   EXPECT_EQ(crowded_edges(indices), 2u);  // the diagonals 1-5 and 3-7, between rim vertices
 }
 
+// The welded unit cube with a triangle standing on its top edge y = 0, z = 1
+// (three faces on that edge), the fin's face last.
+void add_cube_with_fin(std::vector<uint32_t>* indices, std::vector<double>* positions) {
+  add_cube(indices, positions, 0, 0);
+  weld(indices, *positions);
+  const uint32_t tip = uint32_t(positions->size() / 3);
+  positions->insert(positions->end(), {0.5, -0.5, 1.5});
+  indices->insert(indices->end(), {4, 5, tip});  // corners 4 = (0,0,1), 5 = (1,0,1)
+}
+
 TEST(PinchSplit, AFinOnACubeLeavesTheCubeClosed) {
-  // A triangle standing on the cube's top edge y = 0, z = 1 (three faces on
-  // that edge): the cube's two faces there are one sheet, the fin its own.
+  // The cube's two faces on the fin's edge are one sheet, the fin its own.
   std::vector<uint32_t> indices;
   std::vector<double> positions;
-  add_cube(&indices, &positions, 0, 0);
-  weld(&indices, positions);
-  const uint32_t tip = uint32_t(positions.size() / 3);
-  positions.insert(positions.end(), {0.5, -0.5, 1.5});
-  indices.insert(indices.end(), {4, 5, tip});  // corners 4 = (0,0,1), 5 = (1,0,1)
+  add_cube_with_fin(&indices, &positions);
   size_t count = positions.size() / 3;
   ASSERT_EQ(crowded_edges(indices), 1u);
   const auto copies = split_pinched_vertices(&indices, &count, positions);
@@ -325,11 +330,7 @@ TEST(PinchSplit, OpenEdgesAreTheEdgesOfOneFaceOrOfMoreThanTwo) {
   }
   std::vector<uint32_t> indices;
   std::vector<double> positions;
-  add_cube(&indices, &positions, 0, 0);
-  weld(&indices, positions);
-  const uint32_t tip = uint32_t(positions.size() / 3);
-  positions.insert(positions.end(), {0.5, -0.5, 1.5});
-  indices.insert(indices.end(), {4, 5, tip});
+  add_cube_with_fin(&indices, &positions);
   // An open fan of four faces round a centre, beside the cube.
   const uint32_t c = uint32_t(positions.size() / 3);
   positions.insert(positions.end(), {5, 0, 0, 6, 0, 0, 5, 1, 0, 4, 0, 0, 5, -1, 0});

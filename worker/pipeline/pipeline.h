@@ -109,10 +109,11 @@ struct PipelineOptions {
   // Surface elements per output vertex at the mean spacing (the refinement's
   // edge length is the target spacing over sqrt of this), and within
   // cvt_rim_band output spacings of an open edge (a rim, a fin's foot). The
-  // CVT holds its mean SSIM and FLIP with 10 (docs/quality.md), but with
-  // 10 at the rim too the dual cut a notch into cube_no_bottom's open rim at
-  // 200 vertices: its cells along a rim need 16 to keep a rim cell between
-  // two others (docs/performance.md, issue 15, session 27).
+  // CVT holds its mean SSIM and FLIP with 10 and takes 16-30% less time on 2
+  // cores (docs/quality.md, docs/performance.md: issue 15, session 27); at a
+  // rim the dual needs more elements per cell to keep a rim cell between two
+  // others (10 everywhere once cut a notch into cube_no_bottom's rim, and
+  // still costs the open models' mean distance).
   double cvt_elements_per_vertex = 10;
   double cvt_rim_elements_per_vertex = 16;
   double cvt_rim_band = 1.5;

@@ -25,6 +25,10 @@ double distance2_to_segment(const Vec3d& p, const Vec3d& a, const Vec3d& b) {
   return dot(p - q, p - q);
 }
 
+Vec3d point(const std::vector<double>& positions, uint32_t i) {
+  return {positions[3 * size_t(i)], positions[3 * size_t(i) + 1], positions[3 * size_t(i) + 2]};
+}
+
 // Points along a segment of this length: at most radius / 2 apart, both ends.
 double points_along(double length, double radius) { return std::max(std::ceil(length / (0.5 * radius)), 1.0) + 1; }
 
@@ -34,14 +38,7 @@ double RimBand::points_needed(const std::vector<double>& positions,
                               const std::vector<std::pair<uint32_t, uint32_t>>& segments, double radius) {
   if (!(radius > 0) || !std::isfinite(radius)) return 0;
   double total = 0;
-  for (const auto& [i, j] : segments) {
-    double d2 = 0;
-    for (int c = 0; c < 3; ++c) {
-      const double d = positions[3 * size_t(j) + c] - positions[3 * size_t(i) + c];
-      d2 += d * d;
-    }
-    total += points_along(std::sqrt(d2), radius);
-  }
+  for (const auto& [i, j] : segments) total += points_along(norm(point(positions, j) - point(positions, i)), radius);
   return total;
 }
 
@@ -50,9 +47,8 @@ RimBand::RimBand(const std::vector<double>& positions, const std::vector<std::pa
   if (segments.empty() || !(radius > 0) || !std::isfinite(radius)) return;
   radius2_ = radius * radius;
   inv_cell_ = 1 / (2 * radius);
-  auto at = [&](uint32_t i) { return Vec3d{positions[3 * size_t(i)], positions[3 * size_t(i) + 1], positions[3 * size_t(i) + 2]}; };
   for (const auto& [i, j] : segments) {
-    const Vec3d a = at(i), b = at(j);
+    const Vec3d a = point(positions, i), b = point(positions, j);
     const uint32_t s = uint32_t(a_.size());
     a_.push_back(a);
     b_.push_back(b);
