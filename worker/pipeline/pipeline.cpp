@@ -26,6 +26,7 @@
 #include "color_transfer.h"
 #include "core/mesh_parts.h"
 #include "core/running_jobs.h"
+#include "core/step_marks.h"
 #include "debug_output.h"
 #include "eval/visual_similarity.h"
 #include "job_device.h"
@@ -892,11 +893,16 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
                 };
             }
 #endif
+            StepMarks marks("meshing");
             VPR_RETURN_IF_ERROR(mesh_clusters(refined.mesh, refined.edges, label, cells, &result.mesh, &cell,
                                               &result.cluster_mesh, mesh_options));
+            marks.mark("dual");
             PartFallbackStats fallback;
-            VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, parts_beside.get(), label,
+            const SurfaceParts& parts = parts_beside.get();
+            marks.mark("parts_wait");
+            VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, parts, label,
                                                      options.target_vertices, &result.mesh, &cell, &fallback));
+            marks.mark("fallback");
             // A surface of scattered triangles that meet every which way (the
             // pipeline fuzzer makes them) can leave the dual no face: the job
             // fails with that, never returns an empty mesh as a result.
@@ -915,6 +921,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             result.saliency.resize(cell.size());
             for (size_t v = 0; v < cell.size(); ++v)
               result.saliency[v] = weight[cell[v]] > 0 ? float(sum[cell[v]] / weight[cell[v]]) : 1.0f;
+            marks.mark("carry");
             result.meshing = result.cluster_mesh.repair;
             note = "dual of the CVT cells; " + std::to_string(result.cluster_mesh.holes_closed) +
                    " dual holes closed, " + std::to_string(result.cluster_mesh.boundary_loops) + " boundary loops kept";

@@ -20,6 +20,7 @@
 #include "core/collect_in_order.h"
 #include "core/mesh_parts.h"
 #include "core/range_lists.h"
+#include "core/step_marks.h"
 #include "core/vec3.h"
 #include "core/vertex_ranges.h"
 #include "surface/dual_projection.h"
@@ -457,6 +458,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   const size_t nv = surface.vertex_count(), nf = surface.face_count();
   if (label.size() != nv) return invalid_argument("cluster mesh: one label per vertex expected");
   if (edges.vertex_count() != nv) return invalid_argument("cluster mesh: edges of another mesh");
+  StepMarks marks("dual");
   ClusterMeshStats st;
   st.cells = count;
 
@@ -465,6 +467,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   DualSurface made;
   if (!options.surface_facts) made = dual_surface(surface, edges, per_cell);
   const DualSurface& facts = options.surface_facts ? *options.surface_facts : made;
+  marks.mark("facts");
   if (facts.on_boundary.size() != 3 * nf) return invalid_argument("cluster mesh: the facts of another surface");
   const std::vector<char>& on_boundary = facts.on_boundary;
   // Per cell, the length of its input's sharp edges: each sharp edge's
@@ -566,6 +569,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
         for (uint32_t f : cell_faces[cell].face) add_face(f, eig(normal[f]), face_area[f], cell);
     });
   }
+  marks.mark("quadrics");
   // The projections onto the cells' faces: on the device when one is given
   // and takes the lists (flattened for it), else here, where each face's
   // bounding sphere prunes the searches.
@@ -606,6 +610,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   };
   if (!device) make_spheres();
 
+  marks.mark("projector");
   // An input boundary loop met by exactly three cells: their triangle would
   // cap the hole (a small rim closes), so it is not made.
   std::set<std::array<uint32_t, 3>> caps;
@@ -670,6 +675,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   st.holes_closed += close_dual_holes(&tris, [&](uint32_t cell) { return boundary_cell[cell] != 0; },
                                       &st.boundary_loops);
 
+  marks.mark("caps_triples_holes");
   // Vertex positions: quadric minimum about the centroid, then onto the
   // cell's triangles; each cell on its own, so in parallel.
   std::vector<float> points(3 * size_t(count), 0.0f);
@@ -704,6 +710,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       centre[cell] = {c.x(), c.y(), c.z()};
     }
   });
+  marks.mark("solve");
   if (device) {
     const Status placed_there = device->place(solved, centre, &placed);
     if (!placed_there.ok()) host_from_now(placed_there);
@@ -728,6 +735,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       points[3 * size_t(cell) + 2] = float(placed[cell].z);
     }
 
+  marks.mark("place");
   // Two cells can land on one point of the input, or within rounding of it
   // (a corner of a face both touch): a needle of zero length and two
   // degenerate triangles that no later step moves apart. In cell order, a
@@ -790,6 +798,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     }
   }
 
+  marks.mark("clashes");
   if (tris.empty()) return invalid_argument("cluster mesh: the cells form no triangle");
   std::vector<uint32_t> flat;
   flat.reserve(3 * tris.size());
@@ -802,6 +811,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   std::vector<uint32_t> source;
   VPR_RETURN_IF_ERROR(repair_triangle_soup(points.data(), count, flat.data(), tris.size(), repair, out, &source,
                                            &st.repair));
+  marks.mark("repair");
   // The repair splits non-manifold vertices, which can open a hole the first
   // pass could not walk: once more on the repaired mesh.
   {
@@ -818,9 +828,12 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     }
     st.boundary_loops = loops;
   }
+  marks.mark("holes_again");
   drop_slivers(out, &source);
   drop_extra_pieces(out, &source, surface, label);
+  marks.mark("drops");
   delaunay_flips(out);
+  marks.mark("flips");
   std::vector<char> output_boundary(out->vertex_count(), 0);
   {
     // The ends of every edge not used by exactly two faces: the undirected
@@ -836,6 +849,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       if (j - i != 2) output_boundary[uint32_t(uses[i] >> 32)] = output_boundary[uint32_t(uses[i])] = 1;
     }
   }
+  marks.mark("output_boundary");
   if (options.relax_rounds > 0) {
     std::vector<Freedom> freedom(out->vertex_count(), Freedom::kFree);
     for (size_t v = 0; v < freedom.size(); ++v) {
@@ -854,6 +868,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       delaunay_flips(out);
     }
   }
+  marks.mark("relax_flips");
   {
     std::vector<char> on_feature(out->vertex_count(), 0);
     std::vector<Vector3d> vertex_line(out->vertex_count(), Vector3d::Zero());
@@ -863,6 +878,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     }
     restore_crease_edges(out, on_feature, vertex_line);
   }
+  marks.mark("creases");
   {
     // Held: input boundary, crease and corner cells, and any vertex on a
     // boundary of the output (its one-sided fit would pull the rim inwards).
@@ -878,7 +894,9 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     }
     VPR_RETURN_IF_ERROR(fit_offsets(surface, label, source, held, options.offset, out, &st.offset));
   }
+  marks.mark("fit");
   flip_caps(out);
+  marks.mark("flip_caps");
   st.projected_on_device = device != nullptr;
   st.cells_unused = count - out->vertex_count();
   if (cell_of_vertex) *cell_of_vertex = std::move(source);

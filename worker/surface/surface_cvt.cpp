@@ -18,6 +18,7 @@
 
 #include "core/collect_in_order.h"
 #include "core/rng.h"
+#include "core/step_marks.h"
 #include "core/vec3.h"
 #include "core/vertex_ranges.h"
 #include "surface/cell_growth.h"
@@ -538,6 +539,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   if (mass.size() != nv) return invalid_argument("surface CVT: one mass per vertex expected");
   if (adj.vertex_count() != nv) return invalid_argument("surface CVT: edges of another mesh");
   if (count < 1) return invalid_argument("surface CVT: at least one cluster");
+  StepMarks marks("cvt");
   std::vector<Vec3d> x(nv);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 8192), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t v = r.begin(); v != r.end(); ++v) x[v] = load3d(mesh.positions.data(), v);
@@ -751,6 +753,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     }
     return Status::Ok();
   };
+  marks.mark("normals_parts_seeds");
   std::future<Status> planned;
   if (options.device_smoothing) planned = std::async(std::launch::async, plan);
   const Status offsets =
@@ -759,6 +762,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   const Status planned_status = planned.valid() ? planned.get() : offsets.ok() ? plan() : Status::Ok();
   VPR_RETURN_IF_ERROR(offsets);
   VPR_RETURN_IF_ERROR(planned_status);
+  marks.mark("offsets_plan");
   const std::vector<uint32_t>& part = found.part;
   const bool warm = start_cells > 0;
   if (warm) {
@@ -774,6 +778,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     VPR_RETURN_IF_ERROR(options.device_growth ? options.device_growth(grow, &label) : cpu::grow_cells(grow, &label));
   }
 
+  marks.mark("growth");
   uint32_t clusters_now = warm ? start_cells : count;
   std::vector<Cluster> clusters;
   double constant = 0;  // sum m |(x, a n)|^2
@@ -988,12 +993,15 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       in.max_sweeps = options.max_sweeps;
       CvtSweepOutput out;
       VPR_RETURN_IF_ERROR(options.device_sweeps(in, &label, &out));
+      marks.mark("rounds");
       device_sweeps += size_t(out.sweeps);
       moves += out.moves;
       energy.insert(energy.end(), out.energy.begin(), out.energy.end());
       rebuild();
     }
+    marks.mark("sums");
     if (schedule_beside.valid()) schedule = schedule_beside.get();
+    marks.mark("schedule_wait");
     converged = false;
     active.assign(clusters_now, 1);
     changed.assign(clusters_now, 0);
@@ -1307,10 +1315,12 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     guarded.resize(clusters_now, 0);
     energy.push_back(total_energy(clusters, constant));
   };
+  marks.mark("setup");
   if (warm && clusters_now > count) merge_cheapest(clusters_now - count);
   if (warm && clusters_now < count) split_largest(count - clusters_now);
   VPR_RETURN_IF_ERROR(optimize());
 
+  marks.mark("optimize");
   // The defective cells of the labels as they end, when the last round
   // counted them and changed nothing after (else counted again below).
   size_t defective_at_end = SIZE_MAX;
@@ -1355,6 +1365,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     VPR_RETURN_IF_ERROR(optimize());
   }
 
+  marks.mark("topology");
   if (stats) {
     stats->sweeps = sweep + int(device_sweeps);
     stats->converged = converged;
@@ -1369,6 +1380,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
     stats->defective_cells = defective_at_end != SIZE_MAX ? defective_at_end
                                                           : defective_cells(mesh, adj, label, clusters_now).size();
   }
+  marks.mark("stats");
   *label_out = std::move(label);
   return Status::Ok();
 }

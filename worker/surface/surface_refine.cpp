@@ -11,6 +11,7 @@
 #include <string>
 
 #include "core/collect_in_order.h"
+#include "core/step_marks.h"
 #include "core/vec3.h"
 #include "surface/pinch_split.h"
 #include "surface/rim_band.h"
@@ -33,6 +34,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
   if (!(max_edge > 0) || !std::isfinite(max_edge)) return invalid_argument("refine: max_edge must be positive");
   const bool banded = bounds.rim_max_edge > 0 && bounds.rim_max_edge < max_edge && bounds.rim_band > 0 &&
                       std::isfinite(bounds.rim_band);
+  StepMarks marks("refine");
   RefinedSurface out;
   out.input_vertices = input.vertex_count();
   size_t count = 0;  // refined vertices
@@ -80,6 +82,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
       weld[v] = weld[keeper[v]];  // keeper[v] < v: already numbered
     }
   }
+  marks.mark("weld");
   std::vector<double> pos(out.mesh.positions.begin(), out.mesh.positions.end());  // double while splitting
   // The faces kept: welded corners distinct and an area above zero (else no
   // surface to sample), in face order.
@@ -96,12 +99,14 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
       for (int c = 0; c < 3; ++c) out.mesh.indices[3 * k + c] = weld[input.indices[3 * size_t(out.face[k]) + c]];
   });
   if (out.mesh.indices.empty()) return invalid_argument("refine: the mesh has no face of positive area");
+  marks.mark("faces");
   // Pinched vertices and edges (sheets that meet at a vertex only, or three
   // or more faces on an edge): a copy per extra fan (surface/pinch_split.h).
   std::vector<std::pair<uint32_t, uint32_t>> open_edges;
   out.pinch_copies = split_pinched_vertices(&out.mesh.indices, &count, pos, banded ? &open_edges : nullptr);
   for (const auto& [copy, original] : out.pinch_copies)
     for (int c = 0; c < 3; ++c) pos.push_back(pos[3 * size_t(original) + c]);
+  marks.mark("pinch");
   // Per vertex: whether it lies in the rim band (its edges take the finer
   // bound). A midpoint is tested where it is made: a long rim edge's
   // midpoints lie on the rim though its ends may be far from each other.
@@ -121,6 +126,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
     });
   };
   mark_rim(0, count);
+  marks.mark("rim");
 
   // Passes of midpoint splits: each face keeps its corners' order, so the
   // refined faces keep the input's orientation. New vertices are numbered
@@ -166,7 +172,9 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
           }
         });
     if (corners.empty()) {
+      marks.mark("last_look");
       out.edges = mesh_edges(out.mesh.indices, count, &out.corners);
+      marks.mark("edge_rows");
       break;
     }
     tbb::parallel_sort(corners.begin(), corners.end());  // distinct keys: one order on any thread count
@@ -278,6 +286,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
     });
     out.mesh.indices = std::move(indices);
     out.face = std::move(face);
+    marks.mark("pass");
   }
   if (out.edges.offset.empty()) out.edges = mesh_edges(out.mesh.indices, count, &out.corners);  // 64 passes ran out
   out.mesh.positions.assign(pos.begin(), pos.end());
