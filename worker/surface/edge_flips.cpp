@@ -6,8 +6,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <unordered_set>
+#include <utility>
 
 #include "core/vec3.h"
+#include "surface/mesh_edges.h"
 
 namespace vpr {
 namespace {
@@ -27,8 +30,8 @@ uint64_t key2(uint32_t a, uint32_t b) {
 // want(x, y, c, d) says so, unless c-d exists already (or an earlier flip of
 // the pass made it) or a face was flipped earlier in the pass. Returns the
 // number of flips. Edges are visited in (min end, max end) order; each
-// vertex's row lists the edges to higher vertices (no hashing: a pass runs
-// many times per job).
+// vertex's row lists the edges to higher vertices (rows, not a hash of the
+// edges: a pass runs many times per job).
 // recheck: per face, empty on the first pass (every edge is looked at). A
 // later pass looks only at edges with a face in it, and the pass leaves in
 // it the faces it flipped and those of edges it passed over because c-d
@@ -44,40 +47,72 @@ size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
     int64_t face[2];  // the first two faces; face[1] -2: more than two
     bool look;        // a face of the edge is in recheck
   };
-  std::vector<uint32_t> start(nv + 1, 0);
-  for (size_t f = 0; f < nf; ++f)
-    for (int c = 0; c < 3; ++c) {
-      const uint32_t u = mesh->indices[3 * f + c], w = mesh->indices[3 * f + (c + 1) % 3];
-      ++start[std::min(u, w) + 1];
+  // Each vertex's row of edges to vertices at or above it, built from its
+  // own corners (vertex_corners: in face order), one vertex per task: an
+  // edge's faces in (face, corner) order, as one loop over the faces' corners
+  // meets them, so the first two faces and the rows' order do not depend on
+  // the thread count (the serial loop this replaces, and one row search per
+  // corner, held a core for a millisecond a pass on a 20,000-face dual).
+  const VertexCorners vc = vertex_corners(mesh->indices, nv);
+  const uint32_t* idx = mesh->indices.data();
+  // fn(face, other) for each face edge from corner c with ends {a, other},
+  // other >= a, in (face, c) order.
+  auto appearances = [&](uint32_t a, auto&& fn) {
+    const uint32_t* row = vc.corner.data() + vc.offset[a];
+    const uint32_t n = vc.offset[a + 1] - vc.offset[a];
+    for (uint32_t i = 0; i < n;) {
+      const uint32_t f = row[i] / 3;
+      std::array<std::pair<uint32_t, uint32_t>, 6> found;  // (corner of the edge's start, other)
+      int m = 0;
+      for (; i < n && row[i] / 3 == f; ++i) {
+        const uint32_t k = row[i] % 3;
+        const uint32_t next = idx[3 * f + (k + 1) % 3], prev = idx[3 * f + (k + 2) % 3];
+        if (next >= a) found[m++] = {k, next};              // the edge from corner k (a self-edge once)
+        if (prev > a) found[m++] = {(k + 2) % 3, prev};     // the edge into corner k
+      }
+      for (int j = 1; j < m; ++j)  // by corner: an insertion sort of at most six
+        for (int q = j; q > 0 && found[q] < found[q - 1]; --q) std::swap(found[q], found[q - 1]);
+      for (int j = 0; j < m; ++j) fn(f, found[j].second);
     }
+  };
+  std::vector<uint32_t> start(nv + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 1024), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t a = r.begin(); a != r.end(); ++a) {
+      uint32_t count = 0;
+      appearances(a, [&](uint32_t, uint32_t) { ++count; });
+      start[a + 1] = count;
+    }
+  });
   for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
   const bool every_edge = recheck->empty();
   std::vector<Slot> slots(start[nv]);
   std::vector<uint32_t> used(nv, 0);  // slots of each row in use
-  for (size_t f = 0; f < nf; ++f)
-    for (int c = 0; c < 3; ++c) {
-      const uint32_t u = mesh->indices[3 * f + c], w = mesh->indices[3 * f + (c + 1) % 3];
-      const uint32_t lo = std::min(u, w), hi = std::max(u, w);
-      Slot* row = &slots[start[lo]];
-      uint32_t k = 0;
-      while (k < used[lo] && row[k].other != hi) ++k;
-      if (k == used[lo]) {
-        row[used[lo]++] = {hi, {int64_t(f), -1}, false};
-      } else {
-        int64_t& second = row[k].face[1];
-        second = second == -1 ? int64_t(f) : -2;  // -2: more than two faces
-      }
-      if (!every_edge && (*recheck)[f]) row[k].look = true;
+  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 1024), [&](const tbb::blocked_range<uint32_t>& r) {
+    for (uint32_t a = r.begin(); a != r.end(); ++a) {
+      Slot* row = &slots[start[a]];
+      uint32_t& in_use = used[a];
+      appearances(a, [&](uint32_t f, uint32_t hi) {
+        uint32_t k = 0;
+        while (k < in_use && row[k].other != hi) ++k;
+        if (k == in_use) {
+          row[in_use++] = {hi, {int64_t(f), -1}, false};
+        } else {
+          int64_t& second = row[k].face[1];
+          second = second == -1 ? int64_t(f) : -2;  // -2: more than two faces
+        }
+        if (!every_edge && (*recheck)[f]) row[k].look = true;
+      });
+      std::sort(row, row + in_use, [](const Slot& x, const Slot& y) { return x.other < y.other; });
     }
-  for (size_t v = 0; v < nv; ++v)
-    std::sort(slots.begin() + start[v], slots.begin() + start[v] + used[v],
-              [](const Slot& a, const Slot& b) { return a.other < b.other; });
-  std::vector<uint64_t> made;  // edges this pass's flips made, kept sorted
+  });
+  // Edges this pass's flips made (a hash: a pass can make thousands, which a
+  // sorted list took quadratic time to keep).
+  std::unordered_set<uint64_t> made;
   auto exists = [&](uint32_t a, uint32_t b) {
     const uint32_t lo = std::min(a, b), hi = std::max(a, b);
     for (uint32_t k = start[lo]; k < start[lo] + used[lo]; ++k)
       if (slots[k].other == hi) return true;
-    return std::binary_search(made.begin(), made.end(), key2(a, b));
+    return made.count(key2(a, b)) > 0;
   };
   // An edge x-y between its faces (x, y, c) and (y, x, d) as they are now:
   // false where they share no third pair of ends.
@@ -138,7 +173,7 @@ size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
       uint32_t* t1 = &mesh->indices[3 * f1];
       t0[0] = c, t0[1] = x, t0[2] = d;
       t1[0] = d, t1[1] = y, t1[2] = c;
-      made.insert(std::upper_bound(made.begin(), made.end(), key2(c, d)), key2(c, d));  // no second c-d this pass
+      made.insert(key2(c, d));  // no second c-d this pass
       touched[f0] = touched[f1] = 1;
       next_recheck[f0] = next_recheck[f1] = 1;
       ++flips;
