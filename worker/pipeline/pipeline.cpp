@@ -783,9 +783,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
         std::lock_guard<std::mutex> lock(facts->dual_mutex);
         dual_kept = facts->dual;
       }
-      auto make_dual = [&refined, per_cell = per_cell_sums(options.cluster_mesh.per_cell_sums)] {
-        return dual_surface(refined.mesh, refined.edges, per_cell);
-      };
+      auto make_dual = [&refined] { return dual_surface(refined.mesh, refined.edges, true); };
       auto make_dual_beside = [&dual_beside, &dual_kept, &make_dual] {
         if (!dual_beside.valid() && !dual_kept) dual_beside = std::async(std::launch::async, make_dual);
       };

@@ -465,7 +465,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   // The surface's own facts (dual_surface), made beside the CVT or here.
   const bool per_cell = per_cell_sums(options.per_cell_sums);
   DualSurface made;
-  if (!options.surface_facts) made = dual_surface(surface, edges, per_cell);
+  if (!options.surface_facts) made = dual_surface(surface, edges, true);
   const DualSurface& facts = options.surface_facts ? *options.surface_facts : made;
   marks.mark("facts");
   if (facts.on_boundary.size() != 3 * nf) return invalid_argument("cluster mesh: the facts of another surface");
@@ -505,19 +505,21 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       fn(cell);
     }
   };
-  // Face f's terms into `only` (every cell when only is UINT32_MAX).
-  auto add_face = [&](size_t f, const Vector3d& n, double area, uint32_t only) {
+  // Face f's terms into the cells in [lo, hi); list: the face is also added
+  // to those cells' lists.
+  auto add_face = [&](size_t f, const Vector3d& n, double area, uint32_t lo, uint32_t hi, bool list) {
+    auto in = [&](uint32_t cell) { return cell >= lo && cell < hi; };
     const uint32_t* t = &surface.indices[3 * f];
     const Vector3d a = corner(t, 0);
     for_each_cell_of(t, [&](uint32_t cell) {
-      if (only != UINT32_MAX && cell != only) return;
+      if (!in(cell)) return;
       quadric[cell].add_plane(n, a, area);
-      if (only == UINT32_MAX) cell_faces[cell].face.push_back(uint32_t(f));
+      if (list) cell_faces[cell].face.push_back(uint32_t(f));
     });
     for (int k = 0; k < 3; ++k) {
       const uint32_t cell = label[t[k]];
       if (cell == UINT32_MAX) continue;
-      if (only == UINT32_MAX || cell == only) {
+      if (in(cell)) {
         centroid[cell] += corner(t, k) * (area / 3);
         weight[cell] += area / 3;
       }
@@ -528,7 +530,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
         const Vector3d across = e.cross(n).normalized();
         for (uint32_t end : {u, w}) {
           const uint32_t ec = label[end];
-          if (ec == UINT32_MAX || (only != UINT32_MAX && ec != only)) continue;
+          if (ec == UINT32_MAX || !in(ec)) continue;
           boundary_cell[ec] = 1;
           quadric[ec].add_plane(across, pu, e.squaredNorm());
         }
@@ -536,12 +538,32 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     }
   };
   if (!per_cell) {
-    for (size_t f = 0; f < nf; ++f) {
-      Vector3d n;
-      double area;
-      face_plane(surface, f, &n, &area);
-      if (area > 0) add_face(f, n, area, UINT32_MAX);
-    }
+    // The one loop by ranges of cells (core/vertex_ranges.h): each range's
+    // thread reads every face in order and adds only into its own cells, so
+    // each cell gets the loop's terms in face order (the same bits on any
+    // thread count) and two threads share what one did (igea at 10,000 on
+    // 2 cores: 38 ms on one). The faces' planes are the facts' when made.
+    const bool planes = facts.normal.size() == nf;
+    in_vertex_ranges(
+        count,
+        [&](uint32_t lo, uint32_t hi) {
+          for (size_t f = 0; f < nf; ++f) {
+            const uint32_t* t = &surface.indices[3 * f];
+            bool mine = false;
+            for (int k = 0; k < 3; ++k) mine = mine || (label[t[k]] >= lo && label[t[k]] < hi);
+            if (!mine) continue;
+            Vector3d n;
+            double area;
+            if (planes) {
+              n = eig(facts.normal[f]);
+              area = facts.area[f];
+            } else {
+              face_plane(surface, f, &n, &area);
+            }
+            if (area > 0) add_face(f, n, area, lo, hi, true);
+          }
+        },
+        256);
   } else {
     std::vector<Vec3d> normal_made;
     std::vector<double> area_made;
@@ -566,7 +588,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
         256);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 16), [&](const tbb::blocked_range<uint32_t>& r) {
       for (uint32_t cell = r.begin(); cell != r.end(); ++cell)
-        for (uint32_t f : cell_faces[cell].face) add_face(f, eig(normal[f]), face_area[f], cell);
+        for (uint32_t f : cell_faces[cell].face) add_face(f, eig(normal[f]), face_area[f], cell, cell + 1, false);
     });
   }
   marks.mark("quadrics");

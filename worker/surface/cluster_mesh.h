@@ -60,8 +60,8 @@ struct DualSurface {
   std::vector<Vec3d> normal;
   std::vector<double> area;
 };
-// with_planes: also the faces' planes (what mesh_clusters' per-cell sums
-// read; its one loop makes them as it goes).
+// with_planes: also the faces' planes (what mesh_clusters' sums read; made
+// there when the facts have none).
 DualSurface dual_surface(const Mesh& surface, const MeshEdges& edges, bool with_planes);
 // Whether mesh_clusters sums the cells' quadrics per cell (and reads the
 // faces' planes) with these options on this machine.
@@ -77,7 +77,7 @@ struct ClusterMeshOptions {
   int per_cell_sums = -1;
   OffsetFitOptions offset;  // the L2 fit of the vertices along their normals (on by default)
   // dual_surface(surface, edges, ...) made already (null: made here). Its
-  // planes are made here if it has none and the per-cell sums read them.
+  // planes are made here if it has none.
   const DualSurface* surface_facts = nullptr;
   // The projections onto the cells' faces made on a device (the host's bits;
   // null, or a device that fails: on the host).
