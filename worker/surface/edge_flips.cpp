@@ -191,16 +191,23 @@ size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
 // vertices stay where the CVT put them; only the connectivity improves.
 void delaunay_flips(Mesh* mesh) {
   auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
-  auto angle_at = [&](uint32_t o, uint32_t a, uint32_t b) {
+  auto cos_at = [&](uint32_t o, uint32_t a, uint32_t b) {
     const Vector3d u = (p(a) - p(o)).normalized(), w = (p(b) - p(o)).normalized();
-    return std::acos(std::clamp(u.dot(w), -1.0, 1.0));
+    return std::clamp(u.dot(w), -1.0, 1.0);
   };
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
   const double crease = kCreaseCos;
   std::vector<char> recheck;
   for (int pass = 0; pass < 20; ++pass) {
     const size_t flips = flip_pass(mesh, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
-      if (angle_at(c, x, y) + angle_at(d, y, x) <= M_PI + 1e-9) return false;
+      // The opposite angles' sum against pi, by their cosines where they
+      // decide it: acos falls by at least t - s from s to t, so a sum of
+      // cosines above 1e-6 puts the angles more than 1e-6 below pi, one below
+      // -1e-6 more than 1e-6 above; acos, twice an edge, only in between
+      // (the same answers: the margin is far beyond its rounding).
+      const double cc = cos_at(c, x, y), cd = cos_at(d, y, x);
+      if (cc + cd > 1e-6) return false;
+      if (!(cc + cd < -1e-6) && std::acos(cc) + std::acos(cd) <= M_PI + 1e-9) return false;
       const Vector3d n0 = normal(x, y, c), n1 = normal(y, x, d);
       if (n0.dot(n1) < crease) return false;
       const Vector3d m0 = normal(c, x, d), m1 = normal(d, y, c);
@@ -258,12 +265,21 @@ size_t flip_caps(Mesh* mesh) {
     return std::min({angle_at(a, b, c), angle_at(b, c, a), angle_at(c, a, b)});
   };
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
-  const double cap = 150 * M_PI / 180;
+  const double cap = 150 * M_PI / 180, cap_cos = std::cos(cap);
+  // angle_at(o, a, b) > cap, by the cosine where it decides it (acos falls
+  // by at least the cosines' difference; the same answers).
+  auto is_cap = [&](uint32_t o, uint32_t a, uint32_t b) {
+    const Vector3d u = (p(a) - p(o)).normalized(), w = (p(b) - p(o)).normalized();
+    const double t = std::clamp(u.dot(w), -1.0, 1.0);
+    if (t < cap_cos - 1e-9) return true;
+    if (t > cap_cos + 1e-9) return false;
+    return std::acos(t) > cap;
+  };
   size_t total = 0;
   std::vector<char> recheck;
   for (int pass = 0; pass < 8; ++pass) {
     const size_t flips = flip_pass(mesh, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
-      const bool c_cap = angle_at(c, x, y) > cap, d_cap = angle_at(d, y, x) > cap;
+      const bool c_cap = is_cap(c, x, y), d_cap = is_cap(d, y, x);
       if (c_cap == d_cap) return false;  // neither a cap, or both (their normals say nothing)
       const double before = std::min(smallest(x, y, c), smallest(y, x, d));
       if (!(std::min(smallest(c, x, d), smallest(d, y, c)) > before)) return false;
