@@ -21,11 +21,14 @@
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/boost/graph/Euler_operations.h>
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <limits>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -163,11 +166,13 @@ bool oriented_manifold_soup(const std::vector<Triangle>& soup, size_t n, std::ve
     for (const Triangle& t : soup)
       for (int c = 0; c < 3; ++c) link[fill[t[c]]++] = {uint32_t(t[(c + 1) % 3]), uint32_t(t[(c + 2) % 3])};
   }
-  std::vector<uint32_t> ends;  // one vertex's link edges' ends, sorted (reused)
-  for (size_t v = 0; v < n; ++v) {
+  // Each vertex's link on its own, so the vertices in parallel (one answer
+  // however they are shared out; border_from only matters when it is true).
+  std::atomic<bool> one_fan{true};
+  auto fan = [&](size_t v, std::vector<uint32_t>& ends) {
     auto* row = link.data() + start[v];
     const uint32_t count = start[v + 1] - start[v];
-    if (count == 0) continue;
+    if (count == 0) return true;
     std::sort(row, row + count);  // by start, for the walk's look-ups
     for (uint32_t k = 1; k < count; ++k)
       if (row[k][0] == row[k - 1][0]) return false;  // v -> a twice
@@ -191,9 +196,14 @@ bool oriented_manifold_soup(const std::vector<Triangle>& soup, size_t n, std::ve
       at = (*next)[1];
       if (at == begin) break;
     }
-    if (walked != count) return false;
-  }
-  return true;
+    return walked == count;
+  };
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const tbb::blocked_range<size_t>& r) {
+    std::vector<uint32_t> ends;  // one vertex's link edges' ends, sorted (reused)
+    for (size_t v = r.begin(); v != r.end() && one_fan.load(std::memory_order_relaxed); ++v)
+      if (!fan(v, ends)) one_fan = false;
+  });
+  return one_fan;
 }
 
 // How a mesh of one connected component winds: by its signed volume about
@@ -248,8 +258,14 @@ double longest_edge(const SurfaceMesh& sm, const std::vector<FaceIndex>& faces) 
 // Each triangle rotated to start at its smallest index (orientation kept),
 // then the triangles sorted: one order for one set of faces.
 void canonical_order(std::vector<Triangle>* triangles) {
-  for (Triangle& t : *triangles) std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
-  std::sort(triangles->begin(), triangles->end());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, triangles->size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      Triangle& t = (*triangles)[i];
+      std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+    }
+  });
+  // Equal triangles are equal values: one order on any thread count.
+  tbb::parallel_sort(triangles->begin(), triangles->end());
 }
 
 // The repair of a soup that needs none: an oriented 2-manifold
