@@ -25,13 +25,158 @@ uint64_t key2(uint32_t a, uint32_t b) {
   return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a);
 }
 
+// An edge's entry in its lower end's row.
+struct Slot {
+  uint32_t other;    // the higher end
+  int64_t face[2];   // the first two faces in face order; face[1] -1: one face, -2: more than two
+  bool look;         // a face of the edge is in the pass's recheck
+};
+
+// A flip a pass made: the edge x-y of the faces f0 = (x, y, c) and
+// f1 = (y, x, d) became c-d, f0 = (c, x, d) and f1 = (d, y, c).
+struct Flip {
+  uint32_t x, y, c, d;
+  int64_t f0, f1;
+};
+
+// Each vertex's row of the edges to vertices at or above it (sorted by the
+// other end), made once for a run of passes and brought up to date after
+// each pass by its flips (a pass that flips a few dozen edges of 30,000
+// rebuilt them all: a millisecond and a half of a two-core pass).
+struct FlipRows {
+  std::vector<uint32_t> start, used;  // row a: slots[start[a] .. start[a] + used[a]), room to start[a + 1]
+  std::vector<Slot> slots;
+  bool built = false;
+
+  // From each vertex's own corners (vertex_corners: in face order), one
+  // vertex per task: an edge's faces in (face, corner) order, as one loop
+  // over the faces' corners meets them, so the first two faces and the rows'
+  // order do not depend on the thread count. Each row has room for four
+  // more edges than it has (a flip adds one to each of two rows).
+  void build(const Mesh& mesh) {
+    const size_t nv = mesh.vertex_count();
+    const VertexCorners vc = vertex_corners(mesh.indices, nv);
+    const uint32_t* idx = mesh.indices.data();
+    // fn(face, other) for each face edge from corner c with ends {a, other},
+    // other >= a, in (face, c) order.
+    auto appearances = [&](uint32_t a, auto&& fn) {
+      const uint32_t* row = vc.corner.data() + vc.offset[a];
+      const uint32_t n = vc.offset[a + 1] - vc.offset[a];
+      for (uint32_t i = 0; i < n;) {
+        const uint32_t f = row[i] / 3;
+        std::array<std::pair<uint32_t, uint32_t>, 6> found;  // (corner of the edge's start, other)
+        int m = 0;
+        for (; i < n && row[i] / 3 == f; ++i) {
+          const uint32_t k = row[i] % 3;
+          const uint32_t next = idx[3 * f + (k + 1) % 3], prev = idx[3 * f + (k + 2) % 3];
+          if (next >= a) found[m++] = {k, next};           // the edge from corner k (a self-edge once)
+          if (prev > a) found[m++] = {(k + 2) % 3, prev};  // the edge into corner k
+        }
+        for (int j = 1; j < m; ++j)  // by corner: an insertion sort of at most six
+          for (int q = j; q > 0 && found[q] < found[q - 1]; --q) std::swap(found[q], found[q - 1]);
+        for (int j = 0; j < m; ++j) fn(f, found[j].second);
+      }
+    };
+    start.assign(nv + 1, 0);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 1024), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t a = r.begin(); a != r.end(); ++a) {
+        uint32_t count = 4;
+        appearances(a, [&](uint32_t, uint32_t) { ++count; });
+        start[a + 1] = count;
+      }
+    });
+    for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+    slots.assign(start[nv], Slot{});
+    used.assign(nv, 0);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 1024), [&](const tbb::blocked_range<uint32_t>& r) {
+      for (uint32_t a = r.begin(); a != r.end(); ++a) {
+        Slot* row = &slots[start[a]];
+        uint32_t& in_use = used[a];
+        appearances(a, [&](uint32_t f, uint32_t hi) {
+          uint32_t k = 0;
+          while (k < in_use && row[k].other != hi) ++k;
+          if (k == in_use) {
+            row[in_use++] = {hi, {int64_t(f), -1}, false};
+          } else {
+            int64_t& second = row[k].face[1];
+            second = second == -1 ? int64_t(f) : -2;
+          }
+        });
+        std::sort(row, row + in_use, [](const Slot& x, const Slot& y) { return x.other < y.other; });
+      }
+    });
+    built = true;
+  }
+
+  Slot* find(uint32_t a, uint32_t b) {
+    const uint32_t lo = std::min(a, b), hi = std::max(a, b);
+    for (uint32_t k = start[lo]; k < start[lo] + used[lo]; ++k)
+      if (slots[k].other == hi) return &slots[k];
+    return nullptr;
+  }
+
+  // The pass's looks: the edges of the faces in recheck (empty: none).
+  void look_at(const Mesh& mesh, const std::vector<char>& recheck) {
+    for (Slot& slot : slots) slot.look = false;
+    for (size_t f = 0; f < recheck.size(); ++f)
+      if (recheck[f])
+        for (int c = 0; c < 3; ++c)
+          if (Slot* slot = find(mesh.indices[3 * f + c], mesh.indices[3 * f + (c + 1) % 3])) slot->look = true;
+  }
+
+  // The rows as build() would make them after `flips` (in the order made).
+  // Where a flip meets what the update does not follow (an edge of more
+  // than two faces, a row with no room, a corner repeated), the rows are
+  // marked for a rebuild instead.
+  void apply(const std::vector<Flip>& flips) {
+    auto drop = [&](uint32_t a, uint32_t b) {
+      Slot* slot = find(a, b);
+      if (!slot) return false;
+      Slot* end = &slots[start[std::min(a, b)] + used[std::min(a, b)]];
+      std::copy(slot + 1, end, slot);
+      --used[std::min(a, b)];
+      return true;
+    };
+    // The edge a-b's face `from` is now `to`; its faces kept in face order.
+    auto move_face = [&](uint32_t a, uint32_t b, int64_t from, int64_t to) {
+      Slot* slot = find(a, b);
+      if (!slot || slot->face[1] == -2) return false;
+      int64_t* face = slot->face;
+      if (face[0] == from) face[0] = to;
+      else if (face[1] == from) face[1] = to;
+      else return false;
+      if (face[1] >= 0 && face[1] < face[0]) std::swap(face[0], face[1]);
+      return true;
+    };
+    auto add = [&](uint32_t a, uint32_t b, int64_t f0, int64_t f1) {
+      const uint32_t lo = std::min(a, b), hi = std::max(a, b);
+      if (start[lo] + used[lo] == start[lo + 1] || find(a, b)) return false;
+      Slot* row = &slots[start[lo]];
+      uint32_t k = used[lo];
+      for (; k > 0 && row[k - 1].other > hi; --k) row[k] = row[k - 1];
+      row[k] = {hi, {std::min(f0, f1), std::max(f0, f1)}, false};
+      ++used[lo];
+      return true;
+    };
+    for (const Flip& f : flips) {
+      const bool distinct = f.x != f.y && f.c != f.d && f.c != f.x && f.c != f.y && f.d != f.x && f.d != f.y;
+      if (!(distinct && drop(f.x, f.y) && move_face(f.y, f.c, f.f0, f.f1) && move_face(f.x, f.d, f.f1, f.f0) &&
+            add(f.c, f.d, f.f0, f.f1))) {
+        built = false;
+        return;
+      }
+    }
+  }
+};
+
 // One pass of edge flips over the interior edges, in one order for one mesh:
 // the edge x-y between the faces (x, y, c) and (y, x, d) becomes c-d when
 // want(x, y, c, d) says so, unless c-d exists already (or an earlier flip of
 // the pass made it) or a face was flipped earlier in the pass. Returns the
 // number of flips. Edges are visited in (min end, max end) order; each
 // vertex's row lists the edges to higher vertices (rows, not a hash of the
-// edges: a pass runs many times per job).
+// edges: a pass runs many times per job), made on the first pass of a run
+// and updated by each pass's flips at its end.
 // recheck: per face, empty on the first pass (every edge is looked at). A
 // later pass looks only at edges with a face in it, and the pass leaves in
 // it the faces it flipped and those of edges it passed over because c-d
@@ -40,73 +185,17 @@ uint64_t key2(uint32_t a, uint32_t b) {
 // makes an edge that exists) and gets the same "no" (the same flips as
 // looking at every edge, for a fraction of want()'s calls).
 template <class Want>
-size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
+size_t flip_pass(Mesh* mesh, FlipRows* rows, std::vector<char>* recheck, Want want) {
   const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
-  struct Slot {
-    uint32_t other;
-    int64_t face[2];  // the first two faces; face[1] -2: more than two
-    bool look;        // a face of the edge is in recheck
-  };
-  // Each vertex's row of edges to vertices at or above it, built from its
-  // own corners (vertex_corners: in face order), one vertex per task: an
-  // edge's faces in (face, corner) order, as one loop over the faces' corners
-  // meets them, so the first two faces and the rows' order do not depend on
-  // the thread count (the serial loop this replaces, and one row search per
-  // corner, held a core for a millisecond a pass on a 20,000-face dual).
-  const VertexCorners vc = vertex_corners(mesh->indices, nv);
-  const uint32_t* idx = mesh->indices.data();
-  // fn(face, other) for each face edge from corner c with ends {a, other},
-  // other >= a, in (face, c) order.
-  auto appearances = [&](uint32_t a, auto&& fn) {
-    const uint32_t* row = vc.corner.data() + vc.offset[a];
-    const uint32_t n = vc.offset[a + 1] - vc.offset[a];
-    for (uint32_t i = 0; i < n;) {
-      const uint32_t f = row[i] / 3;
-      std::array<std::pair<uint32_t, uint32_t>, 6> found;  // (corner of the edge's start, other)
-      int m = 0;
-      for (; i < n && row[i] / 3 == f; ++i) {
-        const uint32_t k = row[i] % 3;
-        const uint32_t next = idx[3 * f + (k + 1) % 3], prev = idx[3 * f + (k + 2) % 3];
-        if (next >= a) found[m++] = {k, next};              // the edge from corner k (a self-edge once)
-        if (prev > a) found[m++] = {(k + 2) % 3, prev};     // the edge into corner k
-      }
-      for (int j = 1; j < m; ++j)  // by corner: an insertion sort of at most six
-        for (int q = j; q > 0 && found[q] < found[q - 1]; --q) std::swap(found[q], found[q - 1]);
-      for (int j = 0; j < m; ++j) fn(f, found[j].second);
-    }
-  };
-  std::vector<uint32_t> start(nv + 1, 0);
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 1024), [&](const tbb::blocked_range<uint32_t>& r) {
-    for (uint32_t a = r.begin(); a != r.end(); ++a) {
-      uint32_t count = 0;
-      appearances(a, [&](uint32_t, uint32_t) { ++count; });
-      start[a + 1] = count;
-    }
-  });
-  for (size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
   const bool every_edge = recheck->empty();
-  std::vector<Slot> slots(start[nv]);
-  std::vector<uint32_t> used(nv, 0);  // slots of each row in use
-  tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(nv), 1024), [&](const tbb::blocked_range<uint32_t>& r) {
-    for (uint32_t a = r.begin(); a != r.end(); ++a) {
-      Slot* row = &slots[start[a]];
-      uint32_t& in_use = used[a];
-      appearances(a, [&](uint32_t f, uint32_t hi) {
-        uint32_t k = 0;
-        while (k < in_use && row[k].other != hi) ++k;
-        if (k == in_use) {
-          row[in_use++] = {hi, {int64_t(f), -1}, false};
-        } else {
-          int64_t& second = row[k].face[1];
-          second = second == -1 ? int64_t(f) : -2;  // -2: more than two faces
-        }
-        if (!every_edge && (*recheck)[f]) row[k].look = true;
-      });
-      std::sort(row, row + in_use, [](const Slot& x, const Slot& y) { return x.other < y.other; });
-    }
-  });
+  if (!rows->built) rows->build(*mesh);
+  rows->look_at(*mesh, *recheck);
+  const std::vector<uint32_t>& start = rows->start;
+  const std::vector<uint32_t>& used = rows->used;
+  const std::vector<Slot>& slots = rows->slots;
   // Edges this pass's flips made (a hash: a pass can make thousands, which a
-  // sorted list took quadratic time to keep).
+  // sorted list took quadratic time to keep); the rows change only after
+  // the pass.
   std::unordered_set<uint64_t> made;
   auto exists = [&](uint32_t a, uint32_t b) {
     const uint32_t lo = std::min(a, b), hi = std::max(a, b);
@@ -155,7 +244,7 @@ size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
   });
   std::vector<char> touched(nf, 0);
   std::vector<char> next_recheck(nf, 0);
-  size_t flips = 0;
+  std::vector<Flip> flipped;
   for (uint32_t a = 0; a < nv; ++a)
     for (uint32_t j = start[a]; j < start[a] + used[a]; ++j) {
       const Slot& slot = slots[j];
@@ -176,10 +265,11 @@ size_t flip_pass(Mesh* mesh, std::vector<char>* recheck, Want want) {
       made.insert(key2(c, d));  // no second c-d this pass
       touched[f0] = touched[f1] = 1;
       next_recheck[f0] = next_recheck[f1] = 1;
-      ++flips;
+      flipped.push_back({x, y, c, d, f0, f1});
     }
+  rows->apply(flipped);
   recheck->swap(next_recheck);
-  return flips;
+  return flipped.size();
 }
 
 }  // namespace
@@ -198,8 +288,9 @@ void delaunay_flips(Mesh* mesh) {
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
   const double crease = kCreaseCos;
   std::vector<char> recheck;
+  FlipRows rows;
   for (int pass = 0; pass < 20; ++pass) {
-    const size_t flips = flip_pass(mesh, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    const size_t flips = flip_pass(mesh, &rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
       // The opposite angles' sum against pi, by their cosines where they
       // decide it: acos falls by at least t - s from s to t, so a sum of
       // cosines above 1e-6 puts the angles more than 1e-6 below pi, one below
@@ -233,8 +324,9 @@ void restore_crease_edges(Mesh* mesh, const std::vector<char>& on_feature, const
   constexpr double kCos20 = 0.9396926207859084;
   auto along = [&](uint32_t v, const Vector3d& dir) { return std::abs(line[v].dot(dir)) >= kCos20; };
   std::vector<char> recheck;
+  FlipRows rows;
   for (int pass = 0; pass < 8; ++pass) {
-    const size_t flips = flip_pass(mesh, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    const size_t flips = flip_pass(mesh, &rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
       if (!on_feature[c] || !on_feature[d] || on_feature[x] || on_feature[y]) return false;
       const Vector3d dir = (p(d) - p(c)).normalized();
       const bool c_line = line[c].squaredNorm() > 0, d_line = line[d].squaredNorm() > 0;
@@ -277,8 +369,9 @@ size_t flip_caps(Mesh* mesh) {
   };
   size_t total = 0;
   std::vector<char> recheck;
+  FlipRows rows;
   for (int pass = 0; pass < 8; ++pass) {
-    const size_t flips = flip_pass(mesh, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    const size_t flips = flip_pass(mesh, &rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
       const bool c_cap = is_cap(c, x, y), d_cap = is_cap(d, y, x);
       if (c_cap == d_cap) return false;  // neither a cap, or both (their normals say nothing)
       const double before = std::min(smallest(x, y, c), smallest(y, x, d));
