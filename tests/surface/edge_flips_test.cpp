@@ -136,10 +136,12 @@ TEST(EdgeFlipsTest, TheSameFlipsOnAnyThreadCount) {
   std::vector<uint32_t> indices;
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
-      const uint32_t a = number[j * (n + 1) + i], b = number[j * (n + 1) + i + 1], c = number[(j + 1) * (n + 1) + i + 1],
-                     d = number[(j + 1) * (n + 1) + i];
-      if (rng() % 2) indices.insert(indices.end(), {a, b, c, a, c, d});
-      else indices.insert(indices.end(), {a, b, d, b, c, d});
+      const uint32_t a = number[j * (n + 1) + i], b = number[j * (n + 1) + i + 1],
+                     c = number[(j + 1) * (n + 1) + i + 1], d = number[(j + 1) * (n + 1) + i];
+      if (rng() % 2)
+        indices.insert(indices.end(), {a, b, c, a, c, d});
+      else
+        indices.insert(indices.end(), {a, b, d, b, c, d});
     }
   const Mesh start = mesh_of(points, indices);
   std::vector<uint32_t> first;

@@ -898,8 +898,8 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             PartFallbackStats fallback;
             const SurfaceParts& parts = parts_beside.get();
             marks.mark("parts_wait");
-            VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, parts, label,
-                                                     options.target_vertices, &result.mesh, &cell, &fallback));
+            VPR_RETURN_IF_ERROR(replace_broken_parts(refined.mesh, refined.edges, parts, label, options.target_vertices,
+                                                     &result.mesh, &cell, &fallback));
             marks.mark("fallback");
             // A surface of scattered triangles that meet every which way (the
             // pipeline fuzzer makes them) can leave the dual no face: the job

@@ -27,9 +27,9 @@ uint64_t key2(uint32_t a, uint32_t b) {
 
 // An edge's entry in its lower end's row.
 struct Slot {
-  uint32_t other;    // the higher end
-  int64_t face[2];   // the first two faces in face order; face[1] -1: one face, -2: more than two
-  bool look;         // a face of the edge is in the pass's recheck
+  uint32_t other;   // the higher end
+  int64_t face[2];  // the first two faces in face order; face[1] -1: one face, -2: more than two
+  bool look;        // a face of the edge is in the pass's recheck
 };
 
 // A flip a pass made: the edge x-y of the faces f0 = (x, y, c) and
@@ -142,9 +142,12 @@ struct FlipRows {
       Slot* slot = find(a, b);
       if (!slot || slot->face[1] == -2) return false;
       int64_t* face = slot->face;
-      if (face[0] == from) face[0] = to;
-      else if (face[1] == from) face[1] = to;
-      else return false;
+      if (face[0] == from)
+        face[0] = to;
+      else if (face[1] == from)
+        face[1] = to;
+      else
+        return false;
       if (face[1] >= 0 && face[1] < face[0]) std::swap(face[0], face[1]);
       return true;
     };
