@@ -4,13 +4,13 @@
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
 #include <string>
 
+#include "core/step_marks.h"
 #include "core/vec3.h"
 #include "surface/offset_match.h"
 
@@ -54,12 +54,14 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
   OffsetFitStats st;
   const size_t nv = mesh->vertex_count(), nf = mesh->face_count();
   if (label.size() != surface.vertex_count() || cell_of_vertex.size() != nv || held.size() != nv)
-    return invalid_argument("offset fit: one label per surface vertex, one cell and one flag per output vertex expected");
+    return invalid_argument(
+        "offset fit: one label per surface vertex, one cell and one flag per output vertex expected");
   if (!options.enabled || nv == 0 || nf == 0) {
     if (stats) *stats = st;
     return Status::Ok();
   }
   auto pos = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
+  StepMarks marks(on_device ? "fit_device" : "fit_host");
 
   // Faces around each output vertex (CSR), and each cell's output vertices
   // (the manifold repair may split a cell's vertex in two).
@@ -109,6 +111,7 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
     unknown[v] = free_count++;
   }
   st.free_vertices = size_t(free_count);
+  marks.mark("rows_normals");
 
   // The samples, matched to the output's triangles and summed per triangle
   // (offset_match.h), on the device or here.
@@ -119,6 +122,7 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
   } else {
     sample_set = cpu::offset_sample_set(samples);
   }
+  marks.mark("sample_set");
   auto rms = [](double wr2, double w) { return w > 0 ? std::sqrt(wr2 / w) : 0.0; };
 
   std::vector<Vector3d> start(nv);
@@ -141,6 +145,7 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
     std::vector<OffsetFaceSums> per_face;
     double wr2 = 0, w = 0;
     VPR_RETURN_IF_ERROR(sample_set->match(&per_face, &wr2, &w));
+    marks.mark("match");
     st.device_rounds += on_device;
     last_offset = offset;
     last_wr2 = wr2, last_w = w;
@@ -178,8 +183,11 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
     }
     Eigen::SparseMatrix<double> a(free_count, free_count);
     a.setFromTriplets(entries.begin(), entries.end());
+    marks.mark("system");
     Eigen::VectorXd e;
-    if (!solve_offsets(a, rhs, &e)) break;  // keep what the earlier rounds did
+    const bool solved = solve_offsets(a, rhs, &e);
+    marks.mark("solve");
+    if (!solved) break;  // keep what the earlier rounds did
     st.clamped = 0;
     std::vector<double> next = offset;
     for (uint32_t v = 0; v < nv; ++v) {
@@ -220,6 +228,7 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
       }
     }
     offset = next;
+    marks.mark("place");
   }
   // The residuals of the last round's samples under the offsets kept (the
   // linear model above: no second search for the nearest triangles), from
