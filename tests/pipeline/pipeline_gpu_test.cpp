@@ -114,6 +114,9 @@ TEST_F(PipelineGpu, PerceptionDensityFieldRunsOnTheGpuAndEqualsTheCpu) {
   ASSERT_NE(cvt, nullptr);
   EXPECT_EQ(cvt->device, "cuda") << cvt->note;
   EXPECT_NE(cvt->note.find("in colour rounds"), std::string::npos) << cvt->note;
+  const StageTiming* density = find_stage(*gpu, "density");
+  ASSERT_NE(density, nullptr);
+  EXPECT_NE(density->note.find("edge rows made on the GPU"), std::string::npos) << density->note;
   const StageTiming* meshing = find_stage(*gpu, "meshing");
   ASSERT_NE(meshing, nullptr);
   EXPECT_NE(meshing->note.find("vertices placed and relaxed on the GPU"), std::string::npos) << meshing->note;

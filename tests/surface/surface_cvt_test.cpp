@@ -361,6 +361,40 @@ TEST(SurfaceRefineTest, LaterPassesSplitOnlyNewFacesAndKeepTheSurfaceClosed) {
   }
 }
 
+// The edge rows' twin (the GPU's in the pipeline): its rows and corners are
+// the surface's when it answers; when it fails, the host's rows, and why.
+TEST(SurfaceRefineTest, AnEdgeRowsTwinsRowsAreKeptAndAFailingOneLeavesTheHostsRows) {
+  const Mesh m = testing::torus(1.0, 0.3, 30, 40);
+  int calls = 0;
+  const MeshEdgesTwin answering = [&calls](const std::vector<uint32_t>& indices, size_t n, MeshEdges* e,
+                                           VertexCorners* c) {
+    ++calls;
+    *e = mesh_edges(indices, n);
+    *c = vertex_corners(indices, n);
+    e->faces.back() = 99;  // a mark: the twin's rows, not rows made again
+    return Status::Ok();
+  };
+  auto kept = refine_geometry(m, EdgeBounds{0.05, 0, 0}, 1'000'000, answering);
+  ASSERT_TRUE(kept.ok()) << kept.status().to_string();
+  EXPECT_EQ(calls, 1);
+  EXPECT_EQ(kept->edges_twin, "gpu");
+  EXPECT_EQ(kept->edges.faces.back(), 99u);
+  ASSERT_TRUE(kept->corners.built(kept->mesh.vertex_count()));
+  EXPECT_GT(kept->mesh.vertex_count(), m.vertex_count());
+
+  const MeshEdgesTwin failing = [](const std::vector<uint32_t>&, size_t, MeshEdges*, VertexCorners*) {
+    return resource_exhausted("no room on the device");
+  };
+  auto host = refine_geometry(m, EdgeBounds{0.05, 0, 0}, 1'000'000, failing);
+  ASSERT_TRUE(host.ok()) << host.status().to_string();
+  EXPECT_NE(host->edges_twin.find("no room on the device"), std::string::npos) << host->edges_twin;
+  EXPECT_EQ(host->mesh.indices, kept->mesh.indices);
+  const MeshEdges rows = mesh_edges(host->mesh.indices, host->mesh.vertex_count());
+  EXPECT_EQ(host->edges.neighbor, rows.neighbor);
+  EXPECT_EQ(host->edges.faces, rows.faces);
+  EXPECT_EQ(refine_geometry(m, 0.05, 1'000'000)->edges_twin, "");
+}
+
 TEST(SurfaceRefineTest, WeldsDuplicatesAndSmoothsTheSameOnAnyThreadCount) {
   // Refinement and density smoothing run in parallel: positions, faces,
   // values and the smoothed channel must not depend on the thread count. The

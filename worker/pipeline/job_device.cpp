@@ -13,6 +13,7 @@ namespace vpr {
 #ifdef VPR_HAVE_CUDA
 struct JobDevice::Stream {
   CudaStream stream;
+  CudaStream beside;
 };
 
 namespace {
@@ -48,13 +49,16 @@ StatusOr<std::unique_ptr<JobDevice>> JobDevice::select(DevicePolicy policy, int 
     status = init_cuda_device(cuda_device);
     if (status.ok()) {
       auto stream = CudaStream::create(cuda_device);
-      if (stream.ok()) {
-        job->stream_ = std::make_unique<Stream>(Stream{std::move(stream).value()});
+      auto beside = CudaStream::create(cuda_device);
+      if (stream.ok() && beside.ok()) {
+        job->stream_ = std::make_unique<Stream>(Stream{std::move(stream).value(), std::move(beside).value()});
         job->ctx_ = {Device::kCuda, job->stream_->stream.get(), budget};
+        job->beside_ctx_ = {Device::kCuda, job->stream_->beside.get(), budget};
+        job->cuda_device_ = cuda_device;
         job->description_ = "cuda:" + std::to_string(cuda_device) + " " + devices[size_t(cuda_device)].name;
         return job;
       }
-      status = stream.status();
+      status = stream.ok() ? beside.status() : stream.status();
     }
   }
   if (policy == DevicePolicy::kCuda) return Status(StatusCode::kUnavailable, "GPU required but " + status.message());
@@ -67,6 +71,13 @@ StatusOr<std::unique_ptr<JobDevice>> JobDevice::select(DevicePolicy policy, int 
   job->cpu_reason_ = "built without CUDA";
 #endif
   return job;
+}
+
+Status JobDevice::use_on_this_thread() const {
+#ifdef VPR_HAVE_CUDA
+  if (stream_) return init_cuda_device(cuda_device_);
+#endif
+  return Status::Ok();
 }
 
 Status JobDevice::synchronize() const {

@@ -22,6 +22,12 @@ class JobDevice {
   ~JobDevice();
 
   const ExecContext& context() const { return ctx_; }
+  // A second stream of the job's, for work made on another thread beside
+  // the stages (the refinement ahead of the density stage), so its waits do
+  // not wait for the stages' kernels; the same memory budget. That thread
+  // calls use_on_this_thread() first. On the CPU: the CPU context.
+  const ExecContext& beside_context() const { return beside_ctx_; }
+  Status use_on_this_thread() const;
   bool on_gpu() const { return ctx_.device == Device::kCuda; }
   const std::string& description() const { return description_; }  // "cpu" or "cuda:0 NVIDIA H100 ..."
   const std::string& cpu_reason() const { return cpu_reason_; }    // empty on the GPU or when asked for the CPU
@@ -31,6 +37,8 @@ class JobDevice {
  private:
   JobDevice() = default;
   ExecContext ctx_;
+  ExecContext beside_ctx_;
+  int cuda_device_ = -1;
   std::string description_ = "cpu";
   std::string cpu_reason_;
   struct Stream;

@@ -49,6 +49,22 @@ double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+// The refinement's edge rows on the job's GPU, on its stream for work beside
+// the stages (the refinement runs on a thread of its own); none on the CPU.
+// The rows are the host's (integers), so the job's bits do not change.
+MeshEdgesTwin edge_rows_twin(const JobDevice& device) {
+#ifdef VPR_HAVE_CUDA
+  if (device.on_gpu())
+    return
+        [&device](const std::vector<uint32_t>& indices, size_t vertex_count, MeshEdges* edges, VertexCorners* corners) {
+          VPR_RETURN_IF_ERROR(device.use_on_this_thread());
+          return cuda::mesh_edges(indices, vertex_count, edges, corners, device.beside_context());
+        };
+#endif
+  (void)device;
+  return {};
+}
+
 // A stage's twin for the context it is called with: the GPU twin (vpr::cuda,
 // same signature) on a CUDA context, the CPU twin otherwise.
 #ifdef VPR_HAVE_CUDA
@@ -383,9 +399,11 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   const Mesh& input = front->input;
   PipelineResult& result = front->shared;
   const std::string cpu = "cpu";
-  front->start = Clock::now();
+  if (!front->device) {  // else chosen before the refinement ahead started
+    front->start = Clock::now();
+    VPR_ASSIGN_OR_RETURN(front->device, JobDevice::select(options.device, options.cuda_device, options.device_budget));
+  }
   if (options.attention_map) VPR_RETURN_IF_ERROR(check_attention_map(*options.attention_map, front->given_vertices));
-  VPR_ASSIGN_OR_RETURN(front->device, JobDevice::select(options.device, options.cuda_device, options.device_budget));
   const JobDevice& device = *front->device;
   result.device = device.description();
   result.cpu_reason = device.cpu_reason();
@@ -751,9 +769,13 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             const double dv = refined.value[2 * v + 1];
             mass[v] = area[v] * dv * dv;  // rho = D^2: point density follows D
           }
+          const std::string& rows = refined.edges_twin;
           note = std::string(density_mode_name(options.density)) + " density; " +
                  std::to_string(refined.mesh.vertex_count()) + " surface elements" +
                  (made_ahead ? " (refined ahead, beside the stages before)" : "") +
+                 (rows == "gpu"   ? "; edge rows made on the GPU"
+                  : !rows.empty() ? "; edge rows made on the host (GPU failed: " + rows + ")"
+                                  : "") +
                  (smoothed_on_gpu ? "; smoothed on the GPU" : "") +
                  (soup ? "; a polygon soup: the paper's back half follows" : "");
           if (!refined.pinch_copies.empty())
@@ -1453,10 +1475,14 @@ Status run_pipeline_levels(const Mesh& given, const PipelineOptions& options, co
     const EdgeBounds bounds = refine_bounds(target_spacing(front.area, counts[level]), options);
     const size_t limit = refine_limit(front.input, counts[level], options);
     const Mesh* input = &front.input;
-    front.refined_ahead.emplace_back(counts[level], std::async(std::launch::async, [input, bounds, limit] {
-                                       return refine_geometry(*input, bounds, limit);
+    const JobDevice* device = front.device.get();
+    front.refined_ahead.emplace_back(counts[level], std::async(std::launch::async, [input, bounds, limit, device] {
+                                       return refine_geometry(*input, bounds, limit, edge_rows_twin(*device));
                                      }));
   };
+  // The device first: the refinement ahead makes its edge rows there.
+  front.start = Clock::now();
+  VPR_ASSIGN_OR_RETURN(front.device, JobDevice::select(options.device, options.cuda_device, options.device_budget));
   refine_ahead(0);
   VPR_RETURN_IF_ERROR(run_front_half(options, &front));
   const bool all_counts =

@@ -7,9 +7,12 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
+#include "core/exec_context.h"
 #include "core/mesh.h"
+#include "core/status.h"
 
 namespace vpr {
 
@@ -48,5 +51,17 @@ MeshEdges mesh_edges(const Mesh& mesh);
 // corners, when given, gets the corners by vertex where the rows were made
 // from them (on 8 threads or more, mesh_edges.cpp), else is left empty.
 MeshEdges mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count, VertexCorners* corners = nullptr);
+
+// A twin that makes the rows and the corners by vertex elsewhere (the GPU's,
+// below); on an error the caller makes them here.
+using MeshEdgesTwin =
+    std::function<Status(const std::vector<uint32_t>& indices, size_t vertex_count, MeshEdges*, VertexCorners*)>;
+
+// The GPU twin, built when VPR_HAVE_CUDA (mesh_edges.cu): the same rows as
+// mesh_edges (integers only), and the corners by vertex always.
+namespace cuda {
+Status mesh_edges(const std::vector<uint32_t>& indices, size_t vertex_count, MeshEdges* edges, VertexCorners* corners,
+                  const ExecContext& ctx);
+}  // namespace cuda
 
 }  // namespace vpr

@@ -29,7 +29,8 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, siz
   return refine_geometry(input, EdgeBounds{max_edge, 0, 0}, max_vertices);
 }
 
-StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bounds, size_t max_vertices) {
+StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bounds, size_t max_vertices,
+                                         const MeshEdgesTwin& edge_rows) {
   const double max_edge = bounds.max_edge;
   if (!(max_edge > 0) || !std::isfinite(max_edge)) return invalid_argument("refine: max_edge must be positive");
   const bool banded = bounds.rim_max_edge > 0 && bounds.rim_max_edge < max_edge && bounds.rim_band > 0 &&
@@ -143,6 +144,19 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
     const double l2 = length2(a, b);
     return l2 > max2 || (l2 > rim2 && (near_rim[a] || near_rim[b]));
   };
+  // The finished surface's edge rows and corners: the twin's where it
+  // answers (the same rows), else made here.
+  auto make_rows = [&] {
+    if (edge_rows) {
+      const Status twin = edge_rows(out.mesh.indices, count, &out.edges, &out.corners);
+      if (twin.ok()) {
+        out.edges_twin = "gpu";
+        return;
+      }
+      out.edges_twin = twin.to_string();
+    }
+    out.edges = mesh_edges(out.mesh.indices, count, &out.corners);
+  };
   std::vector<uint32_t> fresh;  // the faces the last pass made
   for (int pass = 0; pass < 64; ++pass) {
     const size_t faces = out.mesh.indices.size() / 3;
@@ -173,7 +187,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
         });
     if (corners.empty()) {
       marks.mark("last_look");
-      out.edges = mesh_edges(out.mesh.indices, count, &out.corners);
+      make_rows();
       marks.mark("edge_rows");
       break;
     }
@@ -288,7 +302,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
     out.face = std::move(face);
     marks.mark("pass");
   }
-  if (out.edges.offset.empty()) out.edges = mesh_edges(out.mesh.indices, count, &out.corners);  // 64 passes ran out
+  if (out.edges.offset.empty()) make_rows();  // 64 passes ran out
   out.mesh.positions.assign(pos.begin(), pos.end());
   return out;
 }

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -22,7 +23,10 @@ struct RefinedSurface {
   std::vector<float> value;    // channels per refined vertex: the input's values, linearly interpolated
   std::vector<uint32_t> face;  // per refined face: the input face it lies in
   MeshEdges edges;             // the refined mesh's edges (mesh_edges(mesh)), a by-product of the last pass
-  VertexCorners corners;       // its corners by vertex, when mesh_edges made them (8 threads or more)
+  VertexCorners corners;       // its corners by vertex, when mesh_edges made them (8 threads or more, or the GPU)
+  // Where the edge rows were made: "" on the host as asked, "gpu", or why
+  // the twin failed (then made on the host).
+  std::string edges_twin;
   // (copy, original) for each vertex split where fans met (surface/pinch_split.h)
   std::vector<std::pair<uint32_t, uint32_t>> pinch_copies;
   // Where each refined vertex comes from, for carry_values: the welded
@@ -57,7 +61,10 @@ StatusOr<RefinedSurface> refine_surface(const Mesh& input, const std::vector<flo
 // The same in two steps: the geometry (value and channels left empty), which
 // needs no values, so a job can start it before its field exists; then the
 // values carried to the refined vertices, the same bits as refine_surface.
-StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bounds, size_t max_vertices);
+// edge_rows, when set, makes the last pass's edge rows and corners (the GPU's
+// twin: the same rows); on its error the host makes them.
+StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bounds, size_t max_vertices,
+                                         const MeshEdgesTwin& edge_rows = {});
 StatusOr<RefinedSurface> refine_geometry(const Mesh& input, double max_edge, size_t max_vertices);
 Status carry_values(const std::vector<float>& value, int channels, RefinedSurface* refined);
 
