@@ -12,6 +12,7 @@
 
 #include "core/collect_in_order.h"
 #include "core/step_marks.h"
+#include "core/uninitialized_vector.h"
 #include "core/vec3.h"
 #include "surface/pinch_split.h"
 #include "surface/rim_band.h"
@@ -158,9 +159,22 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
     out.edges = mesh_edges(out.mesh.indices, count, &out.corners);
   };
   std::vector<uint32_t> fresh;  // the faces the last pass made
+  // The passes' faces and per-face arrays, kept from pass to pass and each
+  // written in full by a parallel loop before it is read: zero-filling them
+  // on one thread, and copying the old contents as they grew, cost about as
+  // much as the passes' parallel work on 16 threads.
+  UninitializedVector<uint32_t> indices_now(out.mesh.indices.begin(), out.mesh.indices.end()), indices_next;
+  UninitializedVector<uint32_t> face_now(out.face.begin(), out.face.end()), face_next;
+  UninitializedVector<uint32_t> mid, slots;
+  auto fill = [](UninitializedVector<uint32_t>* v, size_t n, uint32_t value) {
+    resize_for_overwrite(v, n);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 65536), [&](const tbb::blocked_range<size_t>& r) {
+      std::fill(v->begin() + r.begin(), v->begin() + r.end(), value);
+    });
+  };
   for (int pass = 0; pass < 64; ++pass) {
-    const size_t faces = out.mesh.indices.size() / 3;
-    const uint32_t* idx = out.mesh.indices.data();
+    const size_t faces = indices_now.size() / 3;
+    const uint32_t* idx = indices_now.data();
     // The long edges, found from their corners alone (the edge rows of the
     // whole surface, once per pass, cost most of a pass whose splits are
     // few: igea at 10,000 splits 7,000 and then 200 of 800,000 faces):
@@ -185,17 +199,12 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
             if (too_long(a, b)) list->push_back({uint64_t(std::min(a, b)) << 32 | std::max(a, b), uint32_t(h)});
           }
         });
-    if (corners.empty()) {
-      marks.mark("last_look");
-      make_rows();
-      marks.mark("edge_rows");
-      break;
-    }
+    if (corners.empty()) break;
     tbb::parallel_sort(corners.begin(), corners.end());  // distinct keys: one order on any thread count
     // Each edge's first corner, in corner order: the new vertices' order.
     // The run's start is marked at that corner, and the marks read back in
     // corner order (the faces checked are ascending), which sorts them.
-    std::vector<uint32_t> mid(3 * faces, UINT32_MAX);  // per corner: its run's start, then its midpoint
+    fill(&mid, 3 * faces, UINT32_MAX);  // per corner: its run's start, then its midpoint
     tbb::parallel_for(tbb::blocked_range<size_t>(0, corners.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t i = r.begin(); i != r.end(); ++i)
         if (i == 0 || corners[i].edge != corners[i - 1].edge) mid[corners[i].corner] = uint32_t(i);
@@ -222,6 +231,9 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
       return resource_exhausted("refining the surface to edges of " +
                                 std::to_string(banded ? bounds.rim_max_edge : max_edge) + " would need over " +
                                 std::to_string(max_vertices) + " vertices");
+    // An eighth more room than this pass needs: the later passes add few
+    // vertices, which then fit without copying every position again.
+    if (pos.capacity() < 3 * (count + added)) pos.reserve(3 * (count + added) + 3 * (count + added) / 8);
     pos.resize(3 * (count + added));
     tbb::parallel_for(tbb::blocked_range<size_t>(0, added, 4096), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -235,7 +247,8 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
     count += added;
     // A face with s split edges becomes s + 1 faces: each face's first slot,
     // a prefix sum over the faces (in parallel: integers, one result).
-    std::vector<uint32_t> slots(faces + 1, 0);
+    resize_for_overwrite(&slots, faces + 1);  // every entry written below
+    slots[0] = 0;
     auto pieces = [&](size_t f) {
       return uint32_t(1 + (mid[3 * f] != UINT32_MAX) + (mid[3 * f + 1] != UINT32_MAX) + (mid[3 * f + 2] != UINT32_MAX));
     };
@@ -249,8 +262,9 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
           return sum;
         },
         [](uint32_t a, uint32_t b) { return a + b; });
-    std::vector<uint32_t> indices(3 * size_t(slots[faces]));
-    std::vector<uint32_t> face(slots[faces]);
+    UninitializedVector<uint32_t>&indices = indices_next, &face = face_next;
+    resize_for_overwrite(&indices, 3 * size_t(slots[faces]));  // every entry written below
+    resize_for_overwrite(&face, slots[faces]);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, faces, 4096), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t f = r.begin(); f != r.end(); ++f) {
         const uint32_t v[3] = {idx[3 * f], idx[3 * f + 1], idx[3 * f + 2]};
@@ -265,7 +279,7 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
           indices[3 * slot] = a;
           indices[3 * slot + 1] = b;
           indices[3 * slot + 2] = c;
-          face[slot++] = out.face[f];
+          face[slot++] = face_now[f];
         };
         if (split == 0) {
           emit(v[0], v[1], v[2]);
@@ -298,11 +312,16 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
       if (slots[f + 1] - slots[f] > 1)
         for (uint32_t k = slots[f]; k < slots[f + 1]; ++k) list->push_back(k);
     });
-    out.mesh.indices = std::move(indices);
-    out.face = std::move(face);
+    std::swap(indices_now, indices_next);
+    std::swap(face_now, face_next);
     marks.mark("pass");
   }
-  if (out.edges.offset.empty()) make_rows();  // 64 passes ran out
+  // No long edge left (or 64 passes ran out).
+  out.mesh.indices.assign(indices_now.begin(), indices_now.end());
+  out.face.assign(face_now.begin(), face_now.end());
+  marks.mark("last_look");
+  make_rows();
+  marks.mark("edge_rows");
   out.mesh.positions.assign(pos.begin(), pos.end());
   return out;
 }
