@@ -1,9 +1,9 @@
 #include "surface/offset_fit.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <Eigen/Dense>
-#include <Eigen/IterativeLinearSolvers>
-#include <Eigen/Sparse>
-#include <Eigen/SparseCholesky>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -13,6 +13,7 @@
 #include "core/step_marks.h"
 #include "core/vec3.h"
 #include "surface/offset_match.h"
+#include "surface/offset_system.h"
 
 namespace vpr {
 namespace {
@@ -21,30 +22,6 @@ using Eigen::Vector3d;
 
 Vector3d eig(const Vec3d& v) {
   return {v.x, v.y, v.z};
-}
-
-// Solves the fit's normal equations a e = rhs (symmetric positive definite):
-// conjugate gradients with a diagonal preconditioner, down to a residual of
-// 1e-10 of the right-hand side's, far below what float positions keep. The
-// system is a mass matrix of the output's triangles plus a small diagonal,
-// whose diagonal scaling leaves it well conditioned: 18-19 iterations on
-// the shared models, each one sparse product (on the H200, igea at 10,000:
-// 5.4 ms against 24.6 for the sparse Cholesky factorization; the 1M input at
-// 20,000: 12.5 against 79.6). Should they not converge (a mesh whose
-// weights span many orders), the Cholesky factorization solves it.
-bool solve_offsets(const Eigen::SparseMatrix<double>& a, const Eigen::VectorXd& rhs, Eigen::VectorXd* e) {
-  Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper> cg;
-  cg.setTolerance(1e-10);
-  cg.setMaxIterations(500);
-  cg.compute(a);
-  if (cg.info() == Eigen::Success) {
-    *e = cg.solve(rhs);
-    if (cg.info() == Eigen::Success && e->allFinite()) return true;
-  }
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(a);
-  if (ldlt.info() != Eigen::Success) return false;
-  *e = ldlt.solve(rhs);
-  return ldlt.info() == Eigen::Success;
 }
 
 // The fit with its samples on the device (options.device_samples) or here.
@@ -150,42 +127,36 @@ Status fit(const Mesh& surface, const std::vector<uint32_t>& label, const std::v
     last_offset = offset;
     last_wr2 = wr2, last_w = w;
     if (round == 0) st.rms_before = rms(wr2, w);
-    std::vector<Eigen::Triplet<double>> entries;
-    entries.reserve(9 * nf + nv);
-    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(free_count), mass = Eigen::VectorXd::Zero(free_count);
-    for (size_t g = 0; g < nf; ++g) {
-      const OffsetFaceSums& s = per_face[g];
-      if (!(s[12] + s[13] + s[14] > 0)) continue;
-      const uint32_t* u = &mesh->indices[3 * g];
-      const Vector3d n = (pos(u[1]) - pos(u[0])).cross(pos(u[2]) - pos(u[0])).normalized();
-      std::array<double, 3>& along = last_along[g];  // N_k . n_t
-      for (int k = 0; k < 3; ++k) along[k] = unknown[u[k]] >= 0 ? normal[u[k]].dot(n) : 0.0;
-      for (int k = 0; k < 3; ++k) {
-        const int64_t i = unknown[u[k]];
-        if (i < 0) continue;
-        rhs[i] += along[k] * s[9 + k];
-        mass[i] += s[12 + k];
-        for (int l = 0; l < 3; ++l) {
-          const double value = along[k] * along[l] * s[3 * k + l];
-          if (unknown[u[l]] >= 0 && value != 0) entries.emplace_back(i, unknown[u[l]], value);
-        }
+    // The triangles' normals and N_k . n_t, in parallel; then the system
+    // row by row and its conjugate gradients (offset_system.h: the bits of
+    // Eigen's triplets and solver). The system is a mass matrix of the
+    // output's triangles plus a small diagonal, whose diagonal scaling leaves
+    // it well conditioned: 18-19 iterations on the shared models (on the
+    // H200, igea at 10,000: 5.4 ms serial against 24.6 for the sparse
+    // Cholesky factorization, which solves it should they not converge).
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 1024), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t g = r.begin(); g != r.end(); ++g) {
+        if (!face_has_samples(per_face[g])) continue;
+        const uint32_t* u = &mesh->indices[3 * g];
+        const Vector3d n = (pos(u[1]) - pos(u[0])).cross(pos(u[2]) - pos(u[0])).normalized();
+        for (int k = 0; k < 3; ++k) last_along[g][k] = unknown[u[k]] >= 0 ? normal[u[k]].dot(n) : 0.0;
       }
-    }
+    });
+    OffsetSystemInput system_input;
+    system_input.indices = &mesh->indices;
+    system_input.face_start = &face_start;
+    system_input.faces_of = &faces_of;
+    system_input.unknown = &unknown;
+    system_input.per_face = &per_face;
+    system_input.along = &last_along;
+    system_input.offset = &offset;
+    system_input.regularization = options.regularization;
+    system_input.free_count = free_count;
+    const OffsetSystem system = offset_system(system_input);
     last_sums = std::move(per_face);
-    const double mean_mass = mass.sum() / double(free_count);
-    for (uint32_t v = 0; v < nv; ++v) {
-      const int64_t i = unknown[v];
-      if (i < 0) continue;
-      // A vertex no sample sees still gets a positive diagonal.
-      const double w = options.regularization * std::max(mass[i], 1e-3 * mean_mass);
-      entries.emplace_back(i, i, w);
-      rhs[i] -= w * offset[v];
-    }
-    Eigen::SparseMatrix<double> a(free_count, free_count);
-    a.setFromTriplets(entries.begin(), entries.end());
     marks.mark("system");
     Eigen::VectorXd e;
-    const bool solved = solve_offsets(a, rhs, &e);
+    const bool solved = solve_offset_system(system, &e);
     marks.mark("solve");
     if (!solved) break;  // keep what the earlier rounds did
     st.clamped = 0;
