@@ -480,6 +480,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     if (label[w] != UINT32_MAX && label[w] != label[u]) sharp_length[label[w]] += len;
   }
   std::vector<char> boundary_cell(count, 0);
+  marks.mark("sharp_lengths");
 
   // Quadrics, centroids (area-weighted) and the faces touching each cell:
   // per face (of positive area) in face order, its plane once into each cell
@@ -586,6 +587,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
           });
         },
         256);
+    marks.mark("cell_lists");
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 16), [&](const tbb::blocked_range<uint32_t>& r) {
       for (uint32_t cell = r.begin(); cell != r.end(); ++cell)
         for (uint32_t f : cell_faces[cell].face) add_face(f, eig(normal[f]), face_area[f], cell, cell + 1, false);
