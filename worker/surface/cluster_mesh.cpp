@@ -17,9 +17,9 @@
 #include <set>
 #include <unordered_map>
 
+#include "core/bucket_sort.h"
 #include "core/collect_in_order.h"
 #include "core/mesh_parts.h"
-#include "core/range_lists.h"
 #include "core/step_marks.h"
 #include "core/vec3.h"
 #include "core/vertex_ranges.h"
@@ -571,26 +571,26 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     if (facts.normal.size() != nf) face_planes(surface, &normal_made, &area_made);
     const std::vector<Vec3d>& normal = facts.normal.size() == nf ? facts.normal : normal_made;
     const std::vector<double>& face_area = facts.normal.size() == nf ? facts.area : area_made;
-    // Each cell's faces, in face order: by ranges of cells, one per thread
-    // (core/range_lists.h).
-    in_item_ranges(
-        count, nf,
-        [&](size_t f, auto&& emit) {
-          if (face_area[f] > 0) for_each_cell_of(&surface.indices[3 * f], emit);
+    // Each cell's faces, in face order: a counting sort of the faces by
+    // their corners' cells (core/bucket_sort.h), each cell's then sorted;
+    // then each cell's terms from its list.
+    std::vector<uint32_t> list_start, list_face;
+    bucket_sort_each<uint32_t>(
+        nf, count,
+        [&](size_t f, auto&& add) {
+          if (face_area[f] > 0)
+            for_each_cell_of(&surface.indices[3 * f], [&](uint32_t cell) {
+              if (cell < count) add(cell);
+            });
         },
-        [&](uint32_t lo, uint32_t hi, const RangeSources& faces) {
-          faces.each([&](size_t f) {
-            if (face_area[f] > 0)
-              for_each_cell_of(&surface.indices[3 * f], [&](uint32_t cell) {
-                if (cell >= lo && cell < hi) cell_faces[cell].face.push_back(uint32_t(f));
-              });
-          });
-        },
-        256);
+        [](size_t f) { return uint32_t(f); }, std::less<uint32_t>(), &list_start, &list_face);
     marks.mark("cell_lists");
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, count, 16), [&](const tbb::blocked_range<uint32_t>& r) {
-      for (uint32_t cell = r.begin(); cell != r.end(); ++cell)
-        for (uint32_t f : cell_faces[cell].face) add_face(f, eig(normal[f]), face_area[f], cell, cell + 1, false);
+      for (uint32_t cell = r.begin(); cell != r.end(); ++cell) {
+        std::vector<uint32_t>& faces = cell_faces[cell].face;
+        faces.assign(list_face.begin() + list_start[cell], list_face.begin() + list_start[cell + 1]);
+        for (uint32_t f : faces) add_face(f, eig(normal[f]), face_area[f], cell, cell + 1, false);
+      }
     });
   }
   marks.mark("quadrics");
