@@ -113,14 +113,10 @@ TEST(EdgeFlipsTest, DelaunayFlipsLeaveNoEdgeTheRuleWouldFlip) {
   EXPECT_EQ(non_delaunay(m), 0);
 }
 
-// The rows a pass looks at are made per vertex from its corners (by atomic
-// slots on 8 threads or more, a counting sort below): the same flips on any
-// thread count. A jittered 60 x 60 grid on a bent sheet (creases refuse
-// some flips) with its vertices numbered at random, so the rows' order is
-// not the faces' order; each count in an arena of that many threads.
-TEST(EdgeFlipsTest, TheSameFlipsOnAnyThreadCount) {
-  const int n = 60;
-  std::mt19937 rng(7);
+// A jittered n x n grid bent by 39 degrees at its middle, its vertices
+// numbered at random and each square cut by a diagonal chosen at random.
+Mesh bent_grid(int n, uint32_t seed) {
+  std::mt19937 rng(seed);
   std::uniform_real_distribution<double> jitter(-0.2, 0.2);
   std::vector<Vec3d> grid;
   for (int j = 0; j <= n; ++j)
@@ -143,7 +139,16 @@ TEST(EdgeFlipsTest, TheSameFlipsOnAnyThreadCount) {
       else
         indices.insert(indices.end(), {a, b, d, b, c, d});
     }
-  const Mesh start = mesh_of(points, indices);
+  return mesh_of(points, indices);
+}
+
+// The rows a pass looks at are made per vertex from its corners (by atomic
+// slots on 8 threads or more, a counting sort below): the same flips on any
+// thread count. A jittered 60 x 60 grid on a bent sheet (creases refuse
+// some flips) with its vertices numbered at random, so the rows' order is
+// not the faces' order; each count in an arena of that many threads.
+TEST(EdgeFlipsTest, TheSameFlipsOnAnyThreadCount) {
+  const Mesh start = bent_grid(60, 7);
   std::vector<uint32_t> first;
   for (int threads : {1, 2, 8, 16}) {
     SCOPED_TRACE(threads);
@@ -200,6 +205,51 @@ TEST(EdgeFlipsTest, PairOfCapsAndBoundaryEdgesStay) {
   EXPECT_EQ(flip_caps(&pair), 0u);
   Mesh lone = mesh_of({{0, 0, 0}, {2, 0, 0}, {1, 0.02, 0}}, {0, 1, 2});
   EXPECT_EQ(flip_caps(&lone), 0u);
+}
+
+// The dual's runs of flips with their edge rows kept from run to run give
+// the meshes that new rows give: with the vertices moved between the runs (so
+// the later runs flip again), and with the kept rows then used on another
+// mesh and on one whose faces changed between runs (the rows are of other
+// faces there and must be made afresh).
+TEST(EdgeFlipsTest, KeptRowsGiveTheFlipsOfNewRows) {
+  auto wiggle = [](Mesh* m, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> d(-0.15f, 0.15f);
+    for (size_t i = 0; i < m->positions.size(); i += 3) m->positions[i] += d(rng), m->positions[i + 1] += d(rng);
+  };
+  Mesh fresh = bent_grid(40, 3), kept_mesh = fresh;
+  FlipRowsKept kept;
+  delaunay_flips(&fresh);
+  delaunay_flips(&kept_mesh, &kept);
+  EXPECT_EQ(kept_mesh.indices, fresh.indices);
+  wiggle(&fresh, 11);
+  wiggle(&kept_mesh, 11);
+  const std::vector<uint32_t> before = fresh.indices;
+  delaunay_flips(&fresh);
+  delaunay_flips(&kept_mesh, &kept);
+  EXPECT_NE(fresh.indices, before) << "the second run flipped nothing: the case tests nothing";
+  EXPECT_EQ(kept_mesh.indices, fresh.indices);
+  EXPECT_EQ(flip_caps(&kept_mesh, &kept), flip_caps(&fresh));
+  EXPECT_EQ(kept_mesh.indices, fresh.indices);
+
+  // Another mesh of the same size, then faces changed between two runs.
+  Mesh other = bent_grid(40, 5), other_kept = other;
+  delaunay_flips(&other);
+  delaunay_flips(&other_kept, &kept);
+  EXPECT_EQ(other_kept.indices, other.indices);
+  for (Mesh* m : {&other, &other_kept}) {
+    std::swap(m->indices[0], m->indices[3]);  // two faces' first corners traded: other edges
+    std::swap(m->indices[1], m->indices[4]);
+    std::swap(m->indices[2], m->indices[5]);
+    std::reverse(m->indices.begin() + 6, m->indices.begin() + 606);  // a hundred faces turned and reordered
+    wiggle(m, 13);
+  }
+  const std::vector<uint32_t> changed = other.indices;
+  delaunay_flips(&other);
+  delaunay_flips(&other_kept, &kept);
+  EXPECT_NE(other.indices, changed);
+  EXPECT_EQ(other_kept.indices, other.indices);
 }
 
 }  // namespace

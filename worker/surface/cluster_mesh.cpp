@@ -856,7 +856,10 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
   drop_slivers(out, &source);
   drop_extra_pieces(out, &source, surface, label);
   marks.mark("drops");
-  delaunay_flips(out);
+  // The flips' edge rows, kept from run to run: between them only the
+  // vertices move (the relaxation, the fit).
+  FlipRowsKept flip_rows;
+  delaunay_flips(out, &flip_rows);
   marks.mark("flips");
   std::vector<char> output_boundary(out->vertex_count(), 0);
   {
@@ -889,7 +892,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
         relaxed = relax_tangentially(out, source, freedom, line, surface, cell_faces, nullptr);
       }
       VPR_RETURN_IF_ERROR(relaxed);
-      delaunay_flips(out);
+      delaunay_flips(out, &flip_rows);
     }
   }
   marks.mark("relax_flips");
@@ -900,7 +903,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
       on_feature[v] = feature[source[v]];
       if (feature[source[v]] && pinned_directions[source[v]] == 2) vertex_line[v] = eig(line[source[v]]);
     }
-    restore_crease_edges(out, on_feature, vertex_line);
+    restore_crease_edges(out, on_feature, vertex_line, &flip_rows);
   }
   marks.mark("creases");
   {
@@ -919,7 +922,7 @@ Status mesh_clusters(const Mesh& surface, const MeshEdges& edges, const std::vec
     VPR_RETURN_IF_ERROR(fit_offsets(surface, label, source, held, options.offset, out, &st.offset));
   }
   marks.mark("fit");
-  flip_caps(out);
+  flip_caps(out, &flip_rows);
   marks.mark("flip_caps");
   st.projected_on_device = device != nullptr;
   st.cells_unused = count - out->vertex_count();

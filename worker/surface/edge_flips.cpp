@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <memory>
 #include <unordered_set>
 #include <utility>
 
@@ -172,6 +173,32 @@ struct FlipRows {
   }
 };
 
+}  // namespace
+
+// The rows and the faces they were last brought up to date for.
+struct FlipRowsKept::Rows {
+  FlipRows rows;
+  std::vector<uint32_t> faces;
+};
+FlipRowsKept::FlipRowsKept() = default;
+FlipRowsKept::~FlipRowsKept() = default;
+
+namespace {
+
+// A run's rows: the kept ones where they are of this mesh's faces (else
+// marked to be made afresh), or the run's own where none are kept.
+FlipRows* run_rows(const Mesh& mesh, FlipRowsKept* kept, FlipRows* own) {
+  if (!kept) return own;
+  if (!kept->rows) kept->rows = std::make_unique<FlipRowsKept::Rows>();
+  if (kept->rows->faces != mesh.indices) kept->rows->rows.built = false;
+  return &kept->rows->rows;
+}
+
+// At a run's end: the faces the kept rows are now of.
+void end_run(const Mesh& mesh, FlipRowsKept* kept) {
+  if (kept) kept->rows->faces = mesh.indices;
+}
+
 // One pass of edge flips over the interior edges, in one order for one mesh:
 // the edge x-y between the faces (x, y, c) and (y, x, d) becomes c-d when
 // want(x, y, c, d) says so, unless c-d exists already (or an earlier flip of
@@ -282,7 +309,7 @@ size_t flip_pass(Mesh* mesh, FlipRows* rows, std::vector<char>* recheck, Want wa
 // flipped, unless the flip would fold the surface, cross a crease (faces
 // more than 30 degrees apart), or make an edge that exists already. The
 // vertices stay where the CVT put them; only the connectivity improves.
-void delaunay_flips(Mesh* mesh) {
+void delaunay_flips(Mesh* mesh, FlipRowsKept* kept) {
   auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
   auto cos_at = [&](uint32_t o, uint32_t a, uint32_t b) {
     const Vector3d u = (p(a) - p(o)).normalized(), w = (p(b) - p(o)).normalized();
@@ -291,9 +318,10 @@ void delaunay_flips(Mesh* mesh) {
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
   const double crease = kCreaseCos;
   std::vector<char> recheck;
-  FlipRows rows;
+  FlipRows own;
+  FlipRows* rows = run_rows(*mesh, kept, &own);
   for (int pass = 0; pass < 20; ++pass) {
-    const size_t flips = flip_pass(mesh, &rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    const size_t flips = flip_pass(mesh, rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
       // The opposite angles' sum against pi, by their cosines where they
       // decide it: acos falls by at least t - s from s to t, so a sum of
       // cosines above 1e-6 puts the angles more than 1e-6 below pi, one below
@@ -309,6 +337,7 @@ void delaunay_flips(Mesh* mesh) {
     });
     if (flips == 0) break;
   }
+  end_run(*mesh, kept);
 }
 
 // Crease edges the dual missed: two crease vertices next to each other on
@@ -321,15 +350,17 @@ void delaunay_flips(Mesh* mesh) {
 // crease, however bent the pair is: a chamfer's two faces often meet at 50
 // degrees), and neither new face turns against the old pair. Delaunay flips
 // never undo these (their faces are more than 30 degrees apart).
-void restore_crease_edges(Mesh* mesh, const std::vector<char>& on_feature, const std::vector<Vector3d>& line) {
+void restore_crease_edges(Mesh* mesh, const std::vector<char>& on_feature, const std::vector<Vector3d>& line,
+                          FlipRowsKept* kept) {
   auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
   constexpr double kCos20 = 0.9396926207859084;
   auto along = [&](uint32_t v, const Vector3d& dir) { return std::abs(line[v].dot(dir)) >= kCos20; };
   std::vector<char> recheck;
-  FlipRows rows;
+  FlipRows own;
+  FlipRows* rows = run_rows(*mesh, kept, &own);
   for (int pass = 0; pass < 8; ++pass) {
-    const size_t flips = flip_pass(mesh, &rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    const size_t flips = flip_pass(mesh, rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
       if (!on_feature[c] || !on_feature[d] || on_feature[x] || on_feature[y]) return false;
       const Vector3d dir = (p(d) - p(c)).normalized();
       const bool c_line = line[c].squaredNorm() > 0, d_line = line[d].squaredNorm() > 0;
@@ -340,6 +371,7 @@ void restore_crease_edges(Mesh* mesh, const std::vector<char>& on_feature, const
     });
     if (flips == 0) break;
   }
+  end_run(*mesh, kept);
 }
 
 // Caps left at the end: a triangle (x, y, c) whose corner c lies almost on
@@ -350,7 +382,7 @@ void restore_crease_edges(Mesh* mesh, const std::vector<char>& on_feature, const
 // is flat), so it is wanted whenever the smallest angle of the pair grows and
 // both new faces turn with the other face (x, y, d) by under 60 degrees,
 // creases included: a crease through x-y then runs x-c-y, c beside it.
-size_t flip_caps(Mesh* mesh) {
+size_t flip_caps(Mesh* mesh, FlipRowsKept* kept) {
   auto p = [&](uint32_t v) { return eig(load3d(mesh->positions.data(), v)); };
   auto angle_at = [&](uint32_t o, uint32_t a, uint32_t b) {
     const Vector3d u = (p(a) - p(o)).normalized(), w = (p(b) - p(o)).normalized();
@@ -372,9 +404,10 @@ size_t flip_caps(Mesh* mesh) {
   };
   size_t total = 0;
   std::vector<char> recheck;
-  FlipRows rows;
+  FlipRows own;
+  FlipRows* rows = run_rows(*mesh, kept, &own);
   for (int pass = 0; pass < 8; ++pass) {
-    const size_t flips = flip_pass(mesh, &rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    const size_t flips = flip_pass(mesh, rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
       const bool c_cap = is_cap(c, x, y), d_cap = is_cap(d, y, x);
       if (c_cap == d_cap) return false;  // neither a cap, or both (their normals say nothing)
       const double before = std::min(smallest(x, y, c), smallest(y, x, d));
@@ -385,6 +418,7 @@ size_t flip_caps(Mesh* mesh) {
     total += flips;
     if (flips == 0) break;
   }
+  end_run(*mesh, kept);
   return total;
 }
 
