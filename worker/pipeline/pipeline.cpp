@@ -425,9 +425,12 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
   if (options.density != DensityMode::kPaper && front->curvature.empty())
     curvature_beside = std::async(std::launch::async, [&input, &options] {
       CurvatureAhead a;
+      StepMarks marks("curvature_ahead");
       a.h = attention_curvature(input, options.attention, &a.curvature);
+      marks.mark("curvature");
       if (check_attention_field_args(options.attention, input.vertex_count(), a.h.data()).ok())
         a.prep = prepare_attention(input.positions.data(), a.h.data(), input.vertex_count(), options.attention);
+      marks.mark("prep");
       return a;
     });
   CurvatureAhead ahead;

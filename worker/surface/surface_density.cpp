@@ -1,20 +1,22 @@
 #include "surface/surface_density.h"
 
-#include <algorithm>
-#include <atomic>
-#include <functional>
-#include <cmath>
-#include <cstdio>
-#include <numeric>
-#include <utility>
-
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <future>
+#include <numeric>
+#include <utility>
+
 #include "core/bucket_sort.h"
 #include "core/median.h"
 #include "core/mesh_parts.h"
+#include "core/step_marks.h"
 #include "core/vec3.h"
 
 namespace vpr {
@@ -131,6 +133,15 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
   const size_t nv = mesh.vertex_count(), nf = mesh.face_count();
   const float* p = mesh.positions.data();
   const uint32_t* idx = mesh.indices.data();
+  StepMarks marks("mean_curvatures");
+  // Which way each part faces (for the concave edges' weight): its parts are
+  // found by one serial union-find over the faces, so on its own thread
+  // beside the sorts below (1M faces: a fifth of the curvature's time on 2
+  // cores, which the sorts' threads left idle).
+  const bool weigh = weighted != nullptr;
+  std::future<std::vector<char>> outwards_beside;
+  if (weigh && concave_weight != 1.0)
+    outwards_beside = std::async(std::launch::async, [&mesh] { return faces_outwards(mesh); });
   std::vector<Vec3d> normal(nf);
   std::vector<double> twice_area(nf);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 4096), [&](const tbb::blocked_range<size_t>& r) {
@@ -150,6 +161,7 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
   std::vector<uint32_t> corner_start, corner_face;
   bucket_sort<uint32_t>(
       3 * nf, nv, from, [](size_t i) { return uint32_t(i / 3); }, std::less<uint32_t>(), &corner_start, &corner_face);
+  marks.mark("normals_corners");
   // The half-edges by lower vertex, each bucket in (upper vertex, face) order.
   struct Half {
     uint32_t upper, face;
@@ -158,9 +170,12 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
   std::vector<Half> halves;
   bucket_sort<Half>(
       3 * nf, nv, [&](size_t i) { return std::min(from(i), to(i)); },
-      [&](size_t i) { return Half{std::max(from(i), to(i)), uint32_t(i / 3)}; },
+      [&](size_t i) {
+        return Half{std::max(from(i), to(i)), uint32_t(i / 3)};
+      },
       [](const Half& x, const Half& y) { return x.upper != y.upper ? x.upper < y.upper : x.face < y.face; }, &start,
       &halves);
+  marks.mark("halves");
   // Edges: runs of equal (lower, upper), numbered in that order.
   std::vector<uint32_t> edge_start(nv + 1, 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
@@ -188,8 +203,9 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
   // other's plane, for a part facing outwards: a part with a negative signed
   // volume turns the test round; an edge whose faces disagree on their
   // orientation keeps its whole term).
-  const bool weigh = weighted != nullptr;
-  const std::vector<char> outwards = weigh && concave_weight != 1.0 ? faces_outwards(mesh) : std::vector<char>();
+  marks.mark("edges");
+  const std::vector<char> outwards = outwards_beside.valid() ? outwards_beside.get() : std::vector<char>();
+  marks.mark("outwards_wait");
   auto runs_forward = [&](uint32_t face, uint32_t a, uint32_t b) {
     const uint32_t* t = &idx[3 * size_t(face)];
     return (t[0] == a && t[1] == b) || (t[1] == a && t[2] == b) || (t[2] == a && t[0] == b);
@@ -206,8 +222,8 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
       double angle = 0;
       for (uint32_t a = i; a < j; ++a)
         for (uint32_t b = a + 1; b < j; ++b)
-          angle = std::max(angle,
-                           std::acos(std::clamp(dot(normal[halves[a].face], normal[halves[b].face]), -1.0, 1.0)));
+          angle =
+              std::max(angle, std::acos(std::clamp(dot(normal[halves[a].face], normal[halves[b].face]), -1.0, 1.0)));
       const uint32_t lo = edge_lower[e], hi = halves[i].upper;
       const double length = norm(load3d(p, lo) - load3d(p, hi));
       term[e] = 0.25 * angle * length;
@@ -224,6 +240,7 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
       weighted_term[e] = term[e] * w;
     }
   });
+  marks.mark("terms");
   // Each vertex's edges to lower vertices, ascending.
   std::vector<uint32_t> down_start, down;
   bucket_sort<uint32_t>(
@@ -246,8 +263,10 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
       }
     });
   };
+  marks.mark("down");
   if (mean) per_vertex(term, mean);
   if (weighted) per_vertex(weighted_term, weighted);
+  marks.mark("per_vertex");
 }
 
 Status check_attention_boost(const AttentionBoost& b) {
@@ -265,12 +284,13 @@ Status check_attention_boost(const AttentionBoost& b) {
 
 std::vector<float> vertex_density(const Mesh& mesh, const std::vector<float>& importance, DensityMode mode,
                                   const AttentionBoost& boost) {
-  if (mode == DensityMode::kUniform || mode == DensityMode::kPaper) return std::vector<float>(mesh.vertex_count(), 1.0f);
+  if (mode == DensityMode::kUniform || mode == DensityMode::kPaper)
+    return std::vector<float>(mesh.vertex_count(), 1.0f);
   return vertex_density(mean_curvature(mesh), importance, mode, boost);
 }
 
-std::vector<float> vertex_density(const std::vector<double>& h, const std::vector<float>& importance,
-                                  DensityMode mode, const AttentionBoost& boost) {
+std::vector<float> vertex_density(const std::vector<double>& h, const std::vector<float>& importance, DensityMode mode,
+                                  const AttentionBoost& boost) {
   const size_t nv = h.size();
   std::vector<float> d(nv, 1.0f);
   if (mode == DensityMode::kUniform || mode == DensityMode::kPaper) return d;
@@ -286,9 +306,8 @@ std::vector<float> vertex_density(const std::vector<double>& h, const std::vecto
     auto key = [&](uint32_t v) { return std::isfinite(importance[v]) ? importance[v] : -INFINITY; };
     std::vector<uint32_t> order(nv);
     std::iota(order.begin(), order.end(), 0u);
-    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-      return key(a) != key(b) ? key(a) < key(b) : a < b;
-    });
+    std::sort(order.begin(), order.end(),
+              [&](uint32_t a, uint32_t b) { return key(a) != key(b) ? key(a) < key(b) : a < b; });
     const double last = double(std::max<size_t>(nv - 1, 1));
     for (size_t i = 0; i < nv;) {
       size_t j = i + 1;
