@@ -209,8 +209,8 @@ void end_run(const Mesh& mesh, FlipRowsKept* kept) {
 // and updated by each pass's flips at its end.
 // recheck: per face, empty on the first pass (every edge is looked at). A
 // later pass looks only at edges with a face in it, and the pass leaves in
-// it the faces it flipped and those of edges it passed over because c-d
-// existed: want() depends on the vertices' positions alone, which no pass
+// it the faces it flipped and those of wanted edges it passed over because
+// c-d existed: want() depends on the vertices' positions alone, which no pass
 // moves, so any other edge has the same two faces as last pass (a flip never
 // makes an edge that exists) and gets the same "no" (the same flips as
 // looking at every edge, for a fraction of want()'s calls).
@@ -281,13 +281,15 @@ size_t flip_pass(Mesh* mesh, FlipRows* rows, std::vector<char>* recheck, Want wa
       if (slot.face[1] < 0 || !(every_edge || slot.look)) continue;
       const int64_t f0 = slot.face[0], f1 = slot.face[1];
       if (touched[f0] || touched[f1]) continue;
-      if (!valid[j]) continue;
+      // An edge not wanted stays so while its faces stay (want() reads the
+      // positions, which no pass moves): only a wanted one whose c-d exists
+      // is kept for the next pass (c-d may be flipped away meanwhile).
+      if (!wanted[j]) continue;
       const uint32_t x = quads[j].x, y = quads[j].y, c = quads[j].c, d = quads[j].d;
       if (exists(c, d)) {
         next_recheck[f0] = next_recheck[f1] = 1;
         continue;
       }
-      if (!wanted[j]) continue;
       uint32_t* t0 = &mesh->indices[3 * f0];
       uint32_t* t1 = &mesh->indices[3 * f1];
       t0[0] = c, t0[1] = x, t0[2] = d;
