@@ -395,6 +395,46 @@ TEST(SurfaceRefineTest, AnEdgeRowsTwinsRowsAreKeptAndAFailingOneLeavesTheHostsRo
   EXPECT_EQ(refine_geometry(m, 0.05, 1'000'000)->edges_twin, "");
 }
 
+// The weld over many blocks of its scans: an icosphere as a soup (each face
+// its own three vertices, 245,760 in all, shuffled so that a position's
+// copies lie far apart) welds back to the sphere's vertices, each kept by
+// its lowest index, numbered in index order, on any thread count.
+TEST(SurfaceRefineTest, WeldKeepsEachPositionsLowestIndexOverManyBlocks) {
+  const Mesh sphere = testing::icosphere(6);
+  Mesh soup;
+  std::vector<uint32_t> order(sphere.indices.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::mt19937 rng(5);
+  std::shuffle(order.begin(), order.end(), rng);
+  std::vector<uint32_t> slot(order.size());  // corner -> its soup vertex
+  for (size_t i = 0; i < order.size(); ++i) slot[order[i]] = uint32_t(i);
+  soup.positions.resize(3 * order.size());
+  for (size_t c = 0; c < order.size(); ++c)
+    for (int k = 0; k < 3; ++k)
+      soup.positions[3 * size_t(slot[c]) + k] = sphere.positions[3 * size_t(sphere.indices[c]) + k];
+  soup.indices = slot;
+  // Per sphere vertex, the lowest soup index holding it: the keepers in order.
+  std::vector<uint32_t> lowest(sphere.vertex_count(), UINT32_MAX);
+  for (size_t c = 0; c < order.size(); ++c) lowest[sphere.indices[c]] = std::min(lowest[sphere.indices[c]], slot[c]);
+  std::vector<uint32_t> want(lowest);
+  std::sort(want.begin(), want.end());
+  std::vector<uint32_t> first;
+  for (int threads : {1, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    auto r = refine_geometry(soup, 10.0, 10'000'000);  // no edge is long: the weld alone
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    EXPECT_EQ(r->mesh.vertex_count(), sphere.vertex_count());
+    EXPECT_EQ(r->source, want) << threads << " threads";
+    for (size_t k = 0; k < want.size() && k < r->mesh.vertex_count(); ++k)
+      for (int a = 0; a < 3; ++a) ASSERT_EQ(r->mesh.positions[3 * k + a], soup.positions[3 * size_t(want[k]) + a]);
+    EXPECT_EQ(count(r->mesh).boundary_edges, 0u);
+    if (first.empty())
+      first = r->mesh.indices;
+    else
+      EXPECT_EQ(r->mesh.indices, first) << threads << " threads";
+  }
+}
+
 TEST(SurfaceRefineTest, WeldsDuplicatesAndSmoothsTheSameOnAnyThreadCount) {
   // Refinement and density smoothing run in parallel: positions, faces,
   // values and the smoothed channel must not depend on the thread count. The

@@ -68,22 +68,49 @@ StatusOr<RefinedSurface> refine_geometry(const Mesh& input, const EdgeBounds& bo
                    uint32_t(v)};
   });
   tbb::parallel_sort(sorted.begin(), sorted.end());  // a total order: the same result on any thread count
+  // Each run of equal positions is kept by its first entry's vertex: the
+  // last run start at or before an entry, a running maximum; the kept
+  // vertices numbered in index order, a running count (both parallel scans:
+  // integers, one result; the two loops were serial steps of the
+  // refinement, which the front half waits for).
   std::vector<uint32_t> keeper(n_in);
-  for (size_t i = 0, lead = 0; i < n_in; ++i) {
-    if (i > 0 && !std::equal(sorted[i].key, sorted[i].key + 3, sorted[i - 1].key)) lead = i;
-    keeper[sorted[i].v] = sorted[lead].v;
-  }
+  auto starts_run = [&](size_t i) {
+    return i == 0 || !std::equal(sorted[i].key, sorted[i].key + 3, sorted[i - 1].key);
+  };
+  tbb::parallel_scan(
+      tbb::blocked_range<size_t>(0, n_in, 16384), size_t(0),
+      [&](const tbb::blocked_range<size_t>& r, size_t lead, bool final) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+          if (starts_run(i)) lead = i;
+          if (final) keeper[sorted[i].v] = sorted[lead].v;
+        }
+        return lead;
+      },
+      [](size_t a, size_t b) { return std::max(a, b); });
   std::vector<uint32_t> weld(n_in);
-  for (size_t v = 0; v < n_in; ++v) {
-    if (keeper[v] == v) {
-      out.mesh.positions.insert(out.mesh.positions.end(), input.positions.begin() + 3 * v,
-                                input.positions.begin() + 3 * (v + 1));
-      out.source.push_back(uint32_t(v));
-      weld[v] = uint32_t(count++);
-    } else {
-      weld[v] = weld[keeper[v]];  // keeper[v] < v: already numbered
+  count = tbb::parallel_scan(
+      tbb::blocked_range<size_t>(0, n_in, 16384), size_t(0),
+      [&](const tbb::blocked_range<size_t>& r, size_t kept, bool final) {
+        for (size_t v = r.begin(); v != r.end(); ++v)
+          if (keeper[v] == v) {
+            if (final) weld[v] = uint32_t(kept);
+            ++kept;
+          }
+        return kept;
+      },
+      [](size_t a, size_t b) { return a + b; });
+  out.mesh.positions.resize(3 * count);
+  out.source.resize(count);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n_in, 4096), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t v = r.begin(); v != r.end(); ++v) {
+      if (keeper[v] != v) {
+        weld[v] = weld[keeper[v]];  // a keeper, numbered by the scan
+        continue;
+      }
+      std::copy_n(input.positions.begin() + 3 * v, 3, out.mesh.positions.begin() + 3 * size_t(weld[v]));
+      out.source[weld[v]] = uint32_t(v);
     }
-  }
+  });
   marks.mark("weld");
   std::vector<double> pos(out.mesh.positions.begin(), out.mesh.positions.end());  // double while splitting
   // The faces kept: welded corners distinct and an area above zero (else no
