@@ -95,65 +95,61 @@ OffsetSystem offset_system(const OffsetSystemInput& in) {
   std::vector<double> scratch_value(base(nv));
   std::vector<uint32_t> count(nv, 0);
   Eigen::VectorXd rhs = Eigen::VectorXd::Zero(in.free_count), mass = Eigen::VectorXd::Zero(in.free_count);
+  // fn(v, i, rows, values) for each free vertex v (column i) in parallel,
+  // with its column's scratch.
+  auto each_column = [&](auto&& fn) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 512), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v)
+        if (unknown[v] >= 0) fn(v, unknown[v], &scratch_row[base(v)], &scratch_value[base(v)]);
+    });
+  };
 
   // Column i and the right-hand side's row i (vertex v): its faces in face
   // order (a face listed once per corner of v's is taken once), as the
   // triplets list them.
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 512), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t v = r.begin(); v != r.end(); ++v) {
-      const int64_t i = unknown[v];
-      if (i < 0) continue;
-      uint32_t* rows = &scratch_row[base(v)];
-      double* values = &scratch_value[base(v)];
-      double row_rhs = 0, row_mass = 0;
-      uint32_t previous = UINT32_MAX;
-      for (uint32_t e = face_start[v]; e < face_start[v + 1]; ++e) {
-        const uint32_t g = faces_of[e];
-        if (g == previous) continue;
-        previous = g;
-        const OffsetFaceSums& s = (*in.per_face)[g];
-        if (!face_has_samples(s)) continue;
-        const uint32_t* u = &indices[3 * size_t(g)];
-        const std::array<double, 3>& along = (*in.along)[g];
-        for (int k = 0; k < 3; ++k)
-          if (u[k] == v) {
-            row_rhs += along[k] * s[9 + k];
-            row_mass += s[12 + k];
-          }
-        // Column i's entries (k, l) with corner l at v, in the triplets'
-        // order: corner k first, then l.
-        for (int k = 0; k < 3; ++k) {
-          if (unknown[u[k]] < 0) continue;
-          for (int l = 0; l < 3; ++l) {
-            if (u[l] != v) continue;
-            const double value = along[k] * along[l] * s[3 * k + l];
-            if (value != 0) add_entry(uint32_t(unknown[u[k]]), value, rows, values, &count[v]);
-          }
+  each_column([&](size_t v, int64_t i, uint32_t* rows, double* values) {
+    double row_rhs = 0, row_mass = 0;
+    uint32_t previous = UINT32_MAX;
+    for (uint32_t e = face_start[v]; e < face_start[v + 1]; ++e) {
+      const uint32_t g = faces_of[e];
+      if (g == previous) continue;
+      previous = g;
+      const OffsetFaceSums& s = (*in.per_face)[g];
+      if (!face_has_samples(s)) continue;
+      const uint32_t* u = &indices[3 * size_t(g)];
+      const std::array<double, 3>& along = (*in.along)[g];
+      for (int k = 0; k < 3; ++k)
+        if (u[k] == v) {
+          row_rhs += along[k] * s[9 + k];
+          row_mass += s[12 + k];
+        }
+      // Column i's entries (k, l) with corner l at v, in the triplets'
+      // order: corner k first, then l.
+      for (int k = 0; k < 3; ++k) {
+        if (unknown[u[k]] < 0) continue;
+        for (int l = 0; l < 3; ++l) {
+          if (u[l] != v) continue;
+          const double value = along[k] * along[l] * s[3 * k + l];
+          if (value != 0) add_entry(uint32_t(unknown[u[k]]), value, rows, values, &count[v]);
         }
       }
-      rhs[i] = row_rhs;
-      mass[i] = row_mass;
     }
+    rhs[i] = row_rhs;
+    mass[i] = row_mass;
   });
 
   // The regularization, last into each diagonal (a vertex no sample sees
   // still gets a positive one); then each column by row.
   const double mean_mass = mass.sum() / double(in.free_count);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 512), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t v = r.begin(); v != r.end(); ++v) {
-      const int64_t i = unknown[v];
-      if (i < 0) continue;
-      uint32_t* rows = &scratch_row[base(v)];
-      double* values = &scratch_value[base(v)];
-      const double w = in.regularization * std::max(mass[i], 1e-3 * mean_mass);
-      add_entry(uint32_t(i), w, rows, values, &count[v]);
-      rhs[i] -= w * (*in.offset)[v];
-      for (uint32_t a = 1; a < count[v]; ++a)  // a few entries: insertion sort
-        for (uint32_t b = a; b > 0 && rows[b - 1] > rows[b]; --b) {
-          std::swap(rows[b - 1], rows[b]);
-          std::swap(values[b - 1], values[b]);
-        }
-    }
+  each_column([&](size_t v, int64_t i, uint32_t* rows, double* values) {
+    const double w = in.regularization * std::max(mass[i], 1e-3 * mean_mass);
+    add_entry(uint32_t(i), w, rows, values, &count[v]);
+    rhs[i] -= w * (*in.offset)[v];
+    for (uint32_t a = 1; a < count[v]; ++a)  // a few entries: insertion sort
+      for (uint32_t b = a; b > 0 && rows[b - 1] > rows[b]; --b) {
+        std::swap(rows[b - 1], rows[b]);
+        std::swap(values[b - 1], values[b]);
+      }
   });
 
   OffsetSystem out;
@@ -163,13 +159,10 @@ OffsetSystem offset_system(const OffsetSystemInput& in) {
   for (size_t i = 0; i < size_t(in.free_count); ++i) out.column_start[i + 1] += out.column_start[i];
   out.row.resize(out.column_start.back());
   out.value.resize(out.column_start.back());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 512), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t v = r.begin(); v != r.end(); ++v) {
-      if (unknown[v] < 0) continue;
-      const uint32_t at = out.column_start[size_t(unknown[v])];
-      std::copy_n(&scratch_row[base(v)], count[v], &out.row[at]);
-      std::copy_n(&scratch_value[base(v)], count[v], &out.value[at]);
-    }
+  each_column([&](size_t v, int64_t i, const uint32_t* rows, const double* values) {
+    const uint32_t at = out.column_start[size_t(i)];
+    std::copy_n(rows, count[v], &out.row[at]);
+    std::copy_n(values, count[v], &out.value[at]);
   });
   out.rhs = std::move(rhs);
   return out;
