@@ -304,6 +304,23 @@ size_t flip_pass(Mesh* mesh, FlipRows* rows, std::vector<char>* recheck, Want wa
   return flipped.size();
 }
 
+// A run of up to max_passes flip passes (to the first that flips nothing),
+// on the kept rows where given; returns the number of flips.
+template <class Want>
+size_t run_flips(Mesh* mesh, FlipRowsKept* kept, int max_passes, Want want) {
+  std::vector<char> recheck;
+  FlipRows own;
+  FlipRows* rows = run_rows(*mesh, kept, &own);
+  size_t total = 0;
+  for (int pass = 0; pass < max_passes; ++pass) {
+    const size_t flips = flip_pass(mesh, rows, &recheck, want);
+    total += flips;
+    if (flips == 0) break;
+  }
+  end_run(*mesh, kept);
+  return total;
+}
+
 }  // namespace
 
 // Edge flips towards the Delaunay triangulation of the vertices on the
@@ -319,27 +336,20 @@ void delaunay_flips(Mesh* mesh, FlipRowsKept* kept) {
   };
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
   const double crease = kCreaseCos;
-  std::vector<char> recheck;
-  FlipRows own;
-  FlipRows* rows = run_rows(*mesh, kept, &own);
-  for (int pass = 0; pass < 20; ++pass) {
-    const size_t flips = flip_pass(mesh, rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
-      // The opposite angles' sum against pi, by their cosines where they
-      // decide it: acos falls by at least t - s from s to t, so a sum of
-      // cosines above 1e-6 puts the angles more than 1e-6 below pi, one below
-      // -1e-6 more than 1e-6 above; acos, twice an edge, only in between
-      // (the same answers: the margin is far beyond its rounding).
-      const double cc = cos_at(c, x, y), cd = cos_at(d, y, x);
-      if (cc + cd > 1e-6) return false;
-      if (!(cc + cd < -1e-6) && std::acos(cc) + std::acos(cd) <= M_PI + 1e-9) return false;
-      const Vector3d n0 = normal(x, y, c), n1 = normal(y, x, d);
-      if (n0.dot(n1) < crease) return false;
-      const Vector3d m0 = normal(c, x, d), m1 = normal(d, y, c);
-      return m0.dot(n0 + n1) > 0 && m1.dot(n0 + n1) > 0 && m0.dot(m1) >= crease;
-    });
-    if (flips == 0) break;
-  }
-  end_run(*mesh, kept);
+  run_flips(mesh, kept, 20, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    // The opposite angles' sum against pi, by their cosines where they
+    // decide it: acos falls by at least t - s from s to t, so a sum of
+    // cosines above 1e-6 puts the angles more than 1e-6 below pi, one below
+    // -1e-6 more than 1e-6 above; acos, twice an edge, only in between
+    // (the same answers: the margin is far beyond its rounding).
+    const double cc = cos_at(c, x, y), cd = cos_at(d, y, x);
+    if (cc + cd > 1e-6) return false;
+    if (!(cc + cd < -1e-6) && std::acos(cc) + std::acos(cd) <= M_PI + 1e-9) return false;
+    const Vector3d n0 = normal(x, y, c), n1 = normal(y, x, d);
+    if (n0.dot(n1) < crease) return false;
+    const Vector3d m0 = normal(c, x, d), m1 = normal(d, y, c);
+    return m0.dot(n0 + n1) > 0 && m1.dot(n0 + n1) > 0 && m0.dot(m1) >= crease;
+  });
 }
 
 // Crease edges the dual missed: two crease vertices next to each other on
@@ -358,22 +368,15 @@ void restore_crease_edges(Mesh* mesh, const std::vector<char>& on_feature, const
   auto normal = [&](uint32_t a, uint32_t b, uint32_t c) { return (p(b) - p(a)).cross(p(c) - p(a)).normalized(); };
   constexpr double kCos20 = 0.9396926207859084;
   auto along = [&](uint32_t v, const Vector3d& dir) { return std::abs(line[v].dot(dir)) >= kCos20; };
-  std::vector<char> recheck;
-  FlipRows own;
-  FlipRows* rows = run_rows(*mesh, kept, &own);
-  for (int pass = 0; pass < 8; ++pass) {
-    const size_t flips = flip_pass(mesh, rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
-      if (!on_feature[c] || !on_feature[d] || on_feature[x] || on_feature[y]) return false;
-      const Vector3d dir = (p(d) - p(c)).normalized();
-      const bool c_line = line[c].squaredNorm() > 0, d_line = line[d].squaredNorm() > 0;
-      if (!(c_line || d_line) || (c_line && !along(c, dir)) || (d_line && !along(d, dir))) return false;
-      const Vector3d n0 = normal(x, y, c), n1 = normal(y, x, d);
-      const Vector3d m0 = normal(c, x, d), m1 = normal(d, y, c);
-      return m0.dot(n0 + n1) > 0 && m1.dot(n0 + n1) > 0;
-    });
-    if (flips == 0) break;
-  }
-  end_run(*mesh, kept);
+  run_flips(mesh, kept, 8, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    if (!on_feature[c] || !on_feature[d] || on_feature[x] || on_feature[y]) return false;
+    const Vector3d dir = (p(d) - p(c)).normalized();
+    const bool c_line = line[c].squaredNorm() > 0, d_line = line[d].squaredNorm() > 0;
+    if (!(c_line || d_line) || (c_line && !along(c, dir)) || (d_line && !along(d, dir))) return false;
+    const Vector3d n0 = normal(x, y, c), n1 = normal(y, x, d);
+    const Vector3d m0 = normal(c, x, d), m1 = normal(d, y, c);
+    return m0.dot(n0 + n1) > 0 && m1.dot(n0 + n1) > 0;
+  });
 }
 
 // Caps left at the end: a triangle (x, y, c) whose corner c lies almost on
@@ -404,24 +407,14 @@ size_t flip_caps(Mesh* mesh, FlipRowsKept* kept) {
     if (t > cap_cos + 1e-9) return false;
     return std::acos(t) > cap;
   };
-  size_t total = 0;
-  std::vector<char> recheck;
-  FlipRows own;
-  FlipRows* rows = run_rows(*mesh, kept, &own);
-  for (int pass = 0; pass < 8; ++pass) {
-    const size_t flips = flip_pass(mesh, rows, &recheck, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
-      const bool c_cap = is_cap(c, x, y), d_cap = is_cap(d, y, x);
-      if (c_cap == d_cap) return false;  // neither a cap, or both (their normals say nothing)
-      const double before = std::min(smallest(x, y, c), smallest(y, x, d));
-      if (!(std::min(smallest(c, x, d), smallest(d, y, c)) > before)) return false;
-      const Vector3d other = c_cap ? normal(y, x, d) : normal(x, y, c);
-      return normal(c, x, d).dot(other) > 0.5 && normal(d, y, c).dot(other) > 0.5;
-    });
-    total += flips;
-    if (flips == 0) break;
-  }
-  end_run(*mesh, kept);
-  return total;
+  return run_flips(mesh, kept, 8, [&](uint32_t x, uint32_t y, uint32_t c, uint32_t d) {
+    const bool c_cap = is_cap(c, x, y), d_cap = is_cap(d, y, x);
+    if (c_cap == d_cap) return false;  // neither a cap, or both (their normals say nothing)
+    const double before = std::min(smallest(x, y, c), smallest(y, x, d));
+    if (!(std::min(smallest(c, x, d), smallest(d, y, c)) > before)) return false;
+    const Vector3d other = c_cap ? normal(y, x, d) : normal(x, y, c);
+    return normal(c, x, d).dot(other) > 0.5 && normal(d, y, c).dot(other) > 0.5;
+  });
 }
 
 }  // namespace vpr
