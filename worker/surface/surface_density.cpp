@@ -18,6 +18,7 @@
 #include "core/mesh_parts.h"
 #include "core/step_marks.h"
 #include "core/vec3.h"
+#include "surface/curvature_terms.h"
 
 namespace vpr {
 StatusOr<DensityMode> parse_density_mode(const std::string& name) {
@@ -68,11 +69,6 @@ double signed_volume(const Mesh& mesh) {
   return v / 6.0;
 }
 
-namespace {
-
-// Per face: whether its part (faces joined by shared vertices) faces outwards,
-// by the part's signed volume about its own bounding-box centre, so that a
-// part stored inside out among others is turned round on its own.
 std::vector<char> faces_outwards(const Mesh& mesh) {
   const size_t nf = mesh.face_count();
   size_t parts = 0;
@@ -122,8 +118,6 @@ std::vector<char> faces_outwards(const Mesh& mesh) {
   return out;
 }
 
-}  // namespace
-
 // The sums run in parallel with the same bits as one thread adding edge by
 // edge in (lower vertex, upper vertex) order and face by face: each vertex
 // gathers its own terms in that order (the faces it is a corner of, in face
@@ -145,14 +139,7 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
   std::vector<Vec3d> normal(nf);
   std::vector<double> twice_area(nf);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nf, 4096), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t f = r.begin(); f != r.end(); ++f) {
-      const uint32_t* t = &idx[3 * f];
-      const Vec3d a = load3d(p, t[0]), b = load3d(p, t[1]), c = load3d(p, t[2]);
-      const Vec3d n = cross(b - a, c - a);
-      const double len = norm(n);
-      normal[f] = len > 0 ? n * (1.0 / len) : Vec3d{0, 0, 0};
-      twice_area[f] = len;
-    }
+    for (size_t f = r.begin(); f != r.end(); ++f) face_normal_area(p, &idx[3 * f], &normal[f], &twice_area[f]);
   });
   // Corner i of face i / 3 and its half-edge to the next corner.
   auto from = [&](size_t i) { return idx[i]; };
@@ -206,38 +193,14 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
   marks.mark("edges");
   const std::vector<char> outwards = outwards_beside.valid() ? outwards_beside.get() : std::vector<char>();
   marks.mark("outwards_wait");
-  auto runs_forward = [&](uint32_t face, uint32_t a, uint32_t b) {
-    const uint32_t* t = &idx[3 * size_t(face)];
-    return (t[0] == a && t[1] == b) || (t[1] == a && t[2] == b) || (t[2] == a && t[0] == b);
-  };
-  auto far_corner = [&](uint32_t face, uint32_t a, uint32_t b) {
-    const uint32_t* t = &idx[3 * size_t(face)];
-    return t[0] != a && t[0] != b ? t[0] : t[1] != a && t[1] != b ? t[1] : t[2];
-  };
+  const auto face_of = [&](uint32_t i) { return halves[i].face; };
   std::vector<double> term(ne), weighted_term(weigh ? ne : 0);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, ne, 4096), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t e = r.begin(); e != r.end(); ++e) {
-      const uint32_t i = edge_begin[e], j = edge_begin[e + 1];
-      // The largest angle between the normals of the edge's faces (two on a manifold edge).
-      double angle = 0;
-      for (uint32_t a = i; a < j; ++a)
-        for (uint32_t b = a + 1; b < j; ++b)
-          angle =
-              std::max(angle, std::acos(std::clamp(dot(normal[halves[a].face], normal[halves[b].face]), -1.0, 1.0)));
-      const uint32_t lo = edge_lower[e], hi = halves[i].upper;
-      const double length = norm(load3d(p, lo) - load3d(p, hi));
-      term[e] = 0.25 * angle * length;
-      if (!weigh) continue;
-      double w = 1.0;
-      if (j - i == 2 && concave_weight != 1.0) {
-        const uint32_t fa = halves[i].face, fb = halves[i + 1].face;
-        if (runs_forward(fa, lo, hi) != runs_forward(fb, lo, hi)) {
-          const double below = dot(normal[fa], load3d(p, far_corner(fb, lo, hi)) - load3d(p, lo));
-          const bool concave = outwards[fa] ? below > 0 : below < 0;
-          if (concave) w = concave_weight;
-        }
-      }
-      weighted_term[e] = term[e] * w;
+      const double angle = edge_angle(edge_min_cosine(normal.data(), face_of, edge_begin[e], edge_begin[e + 1]));
+      edge_curvature_terms(p, idx, normal.data(), face_of, edge_begin[e], edge_begin[e + 1], edge_lower[e],
+                           halves[edge_begin[e]].upper, angle, weigh, concave_weight, outwards.data(), &term[e],
+                           weigh ? &weighted_term[e] : nullptr);
     }
   });
   marks.mark("terms");
@@ -247,19 +210,15 @@ void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double
       ne, nv, [&](size_t e) { return halves[edge_begin[e]].upper; }, [](size_t e) { return uint32_t(e); },
       std::less<uint32_t>(), &down_start, &down);
   // Per vertex, the sum of its edges' terms over its area, for each term array.
+  const auto upper_of = [&](uint32_t e) { return halves[edge_begin[e]].upper; };
   auto per_vertex = [&](const std::vector<double>& t, std::vector<double>* h) {
     h->assign(nv, 0.0);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nv, 4096), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t v = r.begin(); v != r.end(); ++v) {
-        double area = 0.0, integral = 0.0;
-        for (uint32_t i = corner_start[v]; i < corner_start[v + 1]; ++i) area += twice_area[corner_face[i]] / 6.0;
-        for (uint32_t i = down_start[v]; i < down_start[v + 1]; ++i)
-          if (edge_lower[down[i]] != v) integral += t[down[i]];
-        for (uint32_t e = edge_start[v]; e < edge_start[v + 1]; ++e) {
-          integral += t[e];
-          if (halves[edge_begin[e]].upper == v) integral += t[e];  // an edge from v to itself counts at both ends
-        }
-        (*h)[v] = area > 0 ? integral / area : 0.0;
+        const VertexCurvatureRows rows{twice_area.data(), corner_face.data(), corner_start[v],  corner_start[v + 1],
+                                       down.data(),       down_start[v],      down_start[v + 1], edge_lower.data(),
+                                       edge_start[v],     edge_start[v + 1]};
+        (*h)[v] = vertex_curvature(uint32_t(v), rows, t.data(), upper_of);
       }
     });
   };
