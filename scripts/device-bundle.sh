@@ -21,7 +21,7 @@ targets=(vpremesh vpremesh-bench)
 # The list once, then grep it: `ninja ... | grep -q` under pipefail fails
 # whenever grep stops reading early and ninja dies of SIGPIPE.
 known=$(ninja -C "$BUILD" -t targets all 2>/dev/null || true)
-for t in ${EXTRA_TARGETS-vpremesh-server vpremesh-worker image_saliency_gpu_test attention_field_gpu_test geometry_gpu_test staged_upload_gpu_test mesh_edges_gpu_test cvt_sweeps_gpu_test offset_match_gpu_test dual_projection_gpu_test drawn_geometry_gpu_test device_snapshots_gpu_test pipeline_gpu_test job_device_test}; do
+for t in ${EXTRA_TARGETS-vpremesh-server vpremesh-worker image_saliency_gpu_test attention_field_gpu_test geometry_gpu_test staged_upload_gpu_test mesh_edges_gpu_test mean_curvature_gpu_test cvt_sweeps_gpu_test offset_match_gpu_test dual_projection_gpu_test drawn_geometry_gpu_test device_snapshots_gpu_test pipeline_gpu_test job_device_test}; do
   if grep -q "^$t:" <<<"$known"; then targets+=("$t"); fi
 done
 cmake --build "$BUILD" -j"$(nproc)" --target "${targets[@]}"

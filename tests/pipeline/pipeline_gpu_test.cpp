@@ -94,8 +94,8 @@ TEST_F(PipelineGpu, EveryTwinRunsOnTheGpuAndAgreesWithTheCpu) {
   EXPECT_LT(h->mean, 1e-4) << "GPU and CPU outputs differ by " << h->mean << " of the diagonal on average";
 }
 
-// The surface back half's field (the attention field) runs on the GPU with
-// the CPU's arithmetic: the same field, hence the same density. The CVT's
+// The surface back half's field (the attention field) and its curvature run
+// on the GPU with the CPU's arithmetic: the same field, hence the same density. The CVT's
 // sweeps run in colour rounds there (cvt_sweeps.h), the CPU's sweeps
 // finishing: the mesh of a CPU run with the rounds (their CPU reference),
 // bit for bit. Against the CPU's sweeps alone, another local minimum of the
@@ -109,6 +109,7 @@ TEST_F(PipelineGpu, PerceptionDensityFieldRunsOnTheGpuAndEqualsTheCpu) {
   const StageTiming* t = find_stage(*gpu, "saliency_field");
   ASSERT_NE(t, nullptr);
   EXPECT_EQ(t->device, "cuda") << t->note;
+  EXPECT_NE(t->note.find("curvature on the GPU"), std::string::npos) << t->note;
   EXPECT_EQ(gpu->input_importance, cpu->input_importance);
   const StageTiming* cvt = find_stage(*gpu, "cvt");
   ASSERT_NE(cvt, nullptr);

@@ -14,6 +14,7 @@ namespace vpr {
 struct JobDevice::Stream {
   CudaStream stream;
   CudaStream beside;
+  CudaStream ahead;
 };
 
 namespace {
@@ -50,15 +51,18 @@ StatusOr<std::unique_ptr<JobDevice>> JobDevice::select(DevicePolicy policy, int 
     if (status.ok()) {
       auto stream = CudaStream::create(cuda_device);
       auto beside = CudaStream::create(cuda_device);
-      if (stream.ok() && beside.ok()) {
-        job->stream_ = std::make_unique<Stream>(Stream{std::move(stream).value(), std::move(beside).value()});
+      auto ahead = CudaStream::create(cuda_device);
+      if (stream.ok() && beside.ok() && ahead.ok()) {
+        job->stream_ = std::make_unique<Stream>(
+            Stream{std::move(stream).value(), std::move(beside).value(), std::move(ahead).value()});
         job->ctx_ = {Device::kCuda, job->stream_->stream.get(), budget};
         job->beside_ctx_ = {Device::kCuda, job->stream_->beside.get(), budget};
+        job->ahead_ctx_ = {Device::kCuda, job->stream_->ahead.get(), budget};
         job->cuda_device_ = cuda_device;
         job->description_ = "cuda:" + std::to_string(cuda_device) + " " + devices[size_t(cuda_device)].name;
         return job;
       }
-      status = stream.ok() ? beside.status() : stream.status();
+      status = !stream.ok() ? stream.status() : !beside.ok() ? beside.status() : ahead.status();
     }
   }
   if (policy == DevicePolicy::kCuda) return Status(StatusCode::kUnavailable, "GPU required but " + status.message());

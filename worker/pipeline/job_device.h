@@ -27,6 +27,9 @@ class JobDevice {
   // not wait for the stages' kernels; the same memory budget. That thread
   // calls use_on_this_thread() first. On the CPU: the CPU context.
   const ExecContext& beside_context() const { return beside_ctx_; }
+  // A third, for the curvature made beside stages 1-3 on a thread of its
+  // own while the refinement uses the second.
+  const ExecContext& ahead_context() const { return ahead_ctx_; }
   Status use_on_this_thread() const;
   bool on_gpu() const { return ctx_.device == Device::kCuda; }
   const std::string& description() const { return description_; }  // "cpu" or "cuda:0 NVIDIA H100 ..."
@@ -38,6 +41,7 @@ class JobDevice {
   JobDevice() = default;
   ExecContext ctx_;
   ExecContext beside_ctx_;
+  ExecContext ahead_ctx_;
   int cuda_device_ = -1;
   std::string description_ = "cpu";
   std::string cpu_reason_;

@@ -160,10 +160,30 @@ double target_spacing(double area, uint32_t count) {
 // The attention field's curvature (mean_curvatures: |H| with each concave
 // edge's term times options.concave_weight), as floats; *mean gets |H| itself,
 // which the density's curvature term uses.
+// device: where a GPU job's curvature runs (its stream for work ahead, on
+// the calling thread), or null for the host; *where (when not null) says
+// which ran, and why the host did when the GPU failed. Both twins give the
+// same bits (curvature_terms.h).
 std::vector<float> attention_curvature(const Mesh& input, const AttentionFieldOptions& options,
-                                       std::vector<double>* mean) {
+                                       std::vector<double>* mean, const JobDevice* device = nullptr,
+                                       std::string* where = nullptr) {
   std::vector<double> weighted;
+  std::string ran = "curvature on the host";
+#ifdef VPR_HAVE_CUDA
+  if (device && device->on_gpu()) {
+    Status s = device->use_on_this_thread();
+    if (s.ok()) s = cuda::mean_curvatures(input, options.concave_weight, mean, &weighted, device->ahead_context());
+    if (s.ok()) {
+      if (where) *where = "curvature on the GPU";
+      return std::vector<float>(weighted.begin(), weighted.end());
+    }
+    ran = "curvature on the host (GPU failed: " + s.to_string() + ")";
+  }
+#else
+  (void)device;
+#endif
   mean_curvatures(input, options.concave_weight, mean, &weighted);
+  if (where) *where = ran;
   return std::vector<float>(weighted.begin(), weighted.end());
 }
 
@@ -420,13 +440,14 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
     std::vector<double> curvature;
     std::vector<float> h;  // the field's curvature (concave edges weighed down), as floats
     AttentionPrep prep;    // empty when the field's options are bad (the stage reports them)
+    std::string where;     // which twin made the curvature
   };
   std::future<CurvatureAhead> curvature_beside;
   if (options.density != DensityMode::kPaper && front->curvature.empty())
-    curvature_beside = std::async(std::launch::async, [&input, &options] {
+    curvature_beside = std::async(std::launch::async, [&input, &options, &device] {
       CurvatureAhead a;
       StepMarks marks("curvature_ahead");
-      a.h = attention_curvature(input, options.attention, &a.curvature);
+      a.h = attention_curvature(input, options.attention, &a.curvature, &device, &a.where);
       marks.mark("curvature");
       if (check_attention_field_args(options.attention, input.vertex_count(), a.h.data()).ok())
         a.prep = prepare_attention(input.positions.data(), a.h.data(), input.vertex_count(), options.attention);
@@ -621,9 +642,9 @@ Status run_front_half(const PipelineOptions& options, FrontHalf* front) {
           ahead = curvature_beside.get();
           curvature = std::move(ahead.curvature);
           char text[112];
-          std::snprintf(text, sizeof text, "%.1f ms waiting for the curvature and grid (made beside stages 1-3)",
+          std::snprintf(text, sizeof text, "%.1f ms waiting for the curvature and grid (made beside stages 1-3, ",
                         ms_since(start));
-          note = text;
+          note = text + ahead.where + ")";
         }
         std::vector<float> h_own;
         if (curvature.empty() || ahead.h.size() != input.vertex_count())

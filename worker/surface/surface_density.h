@@ -46,6 +46,20 @@ std::vector<double> mean_curvature(const Mesh& mesh);
 void mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double>* mean,
                      std::vector<double>* weighted);
 
+// Per face: whether its part (faces joined by shared vertices) faces outwards,
+// by the part's signed volume about its own bounding-box centre, so that a
+// part stored inside out among others is turned round on its own (the
+// concave test of mean_curvatures).
+std::vector<char> faces_outwards(const Mesh& mesh);
+
+// The GPU twin, built when VPR_HAVE_CUDA (mean_curvature.cu): the same sums
+// in the same order (curvature_terms.h), within an ulp or two of acos per
+// edge term; *mean and *weighted as above.
+namespace cuda {
+Status mean_curvatures(const Mesh& mesh, double concave_weight, std::vector<double>* mean,
+                       std::vector<double>* weighted, const ExecContext& ctx);
+}  // namespace cuda
+
 // Signed volume enclosed by the faces (about the bounding-box centre):
 // positive where they face outwards.
 double signed_volume(const Mesh& mesh);
