@@ -46,8 +46,12 @@ struct DracoOptions {
   // Draco encoder speed 0 (best) .. 10 (fastest). 10 selects sequential
   // connectivity, which keeps every face and vertex as given; 0..9 select
   // edgebreaker, which reorders vertices, drops degenerate (repeated-index)
-  // faces and splits non-manifold vertices.
-  int speed = 5;
+  // faces and splits non-manifold vertices. 6, the first speed with the
+  // standard edgebreaker (5 and below take its valence coder): on remeshed
+  // outputs (igea 10,000, horse 5,000, bunny 3,000, fandisk 5,000, nefertiti
+  // 20,000; Debian's Draco 1.5.5, 2026-12-07) it encoded in 15-35% less time than 5,
+  // and the files came out 0.02-0.08% smaller, not larger.
+  int speed = 6;
   // .glb/.gltf output: the primitive as a KHR_draco_mesh_compression
   // bitstream (with the settings above); false, or position_bits 0: plain
   // float accessors.
