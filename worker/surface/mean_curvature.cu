@@ -26,6 +26,7 @@
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
+#include "gpu/sorted_search.cuh"
 #include "surface/curvature_terms.h"
 #include "surface/surface_density.h"
 
@@ -92,19 +93,6 @@ __global__ void terms_kernel(const float* p, const uint32_t* idx, const Vec3d* n
                        angle[e], weigh, concave_weight, outwards, &term[e], weigh ? &weighted[e] : nullptr);
 }
 
-// The first of the n sorted values that is v or more.
-__device__ uint32_t first_of(const uint32_t* sorted, uint32_t n, uint32_t v) {
-  uint32_t lo = 0, hi = n;
-  while (lo < hi) {
-    const uint32_t mid = lo + (hi - lo) / 2;
-    if (sorted[mid] < v)
-      lo = mid + 1;
-    else
-      hi = mid;
-  }
-  return lo;
-}
-
 __global__ void vertices_kernel(uint32_t nv, uint32_t corners, uint32_t ne, const double* twice_area,
                                 const uint32_t* corner_vertex, const uint32_t* corner_face,
                                 const uint32_t* down_upper, const uint32_t* down, const uint32_t* lower,
@@ -114,23 +102,16 @@ __global__ void vertices_kernel(uint32_t nv, uint32_t corners, uint32_t ne, cons
   if (v >= nv) return;
   const VertexCurvatureRows rows{twice_area,
                                  corner_face,
-                                 first_of(corner_vertex, corners, v),
-                                 first_of(corner_vertex, corners, v + 1),
+                                 first_at_least(corner_vertex, corners, v),
+                                 first_at_least(corner_vertex, corners, v + 1),
                                  down,
-                                 first_of(down_upper, ne, v),
-                                 first_of(down_upper, ne, v + 1),
+                                 first_at_least(down_upper, ne, v),
+                                 first_at_least(down_upper, ne, v + 1),
                                  lower,
-                                 first_of(lower, ne, v),
-                                 first_of(lower, ne, v + 1)};
+                                 first_at_least(lower, ne, v),
+                                 first_at_least(lower, ne, v + 1)};
   if (mean) mean[v] = vertex_curvature(v, rows, term, UpperOf{upper});
   if (mean_weighted) mean_weighted[v] = vertex_curvature(v, rows, weighted, UpperOf{upper});
-}
-
-// Bits that hold every value 0 .. n.
-int bits_for(size_t n) {
-  int bits = 1;
-  while (bits < 32 && (size_t(1) << bits) <= n) ++bits;
-  return bits;
 }
 
 }  // namespace

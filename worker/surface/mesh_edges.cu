@@ -18,6 +18,7 @@
 
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
+#include "gpu/sorted_search.cuh"
 #include "surface/mesh_edges.h"
 
 namespace vpr::cuda {
@@ -52,18 +53,6 @@ __device__ uint32_t first_of(const uint64_t* keys, uint32_t n, uint32_t v) {
   return lo;
 }
 
-__device__ uint32_t first_of(const uint32_t* vertex, uint32_t n, uint32_t v) {
-  uint32_t lo = 0, hi = n;
-  while (lo < hi) {
-    const uint32_t mid = lo + (hi - lo) / 2;
-    if (vertex[mid] < v)
-      lo = mid + 1;
-    else
-      hi = mid;
-  }
-  return lo;
-}
-
 __global__ void row_starts_kernel(const uint64_t* unique, const uint32_t* runs, uint32_t nv, uint32_t* offset) {
   const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v <= nv) offset[v] = first_of(unique, *runs, v);
@@ -71,19 +60,12 @@ __global__ void row_starts_kernel(const uint64_t* unique, const uint32_t* runs, 
 
 __global__ void corner_starts_kernel(const uint32_t* vertex, uint32_t corners, uint32_t nv, uint32_t* offset) {
   const uint32_t v = blockIdx.x * blockDim.x + threadIdx.x;
-  if (v <= nv) offset[v] = first_of(vertex, corners, v);
+  if (v <= nv) offset[v] = first_at_least(vertex, corners, v);
 }
 
 __global__ void neighbors_kernel(const uint64_t* unique, const uint32_t* runs, uint32_t* neighbor) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < *runs) neighbor[i] = uint32_t(unique[i]);
-}
-
-// Bits that hold every value 0 .. n.
-int bits_for(size_t n) {
-  int bits = 1;
-  while (bits < 32 && (size_t(1) << bits) <= n) ++bits;
-  return bits;
 }
 
 }  // namespace
