@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "core/mesh_parts.h"
+#include "core/step_marks.h"
 #include "core/vec3.h"
 #include "peers/peers.h"
 #include "pipeline/triangle_shape.h"
@@ -95,6 +96,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
   const std::vector<char>& manifold = shapes.manifold;
   const std::vector<int64_t>& euler = shapes.euler;
   const std::vector<size_t>& loops = shapes.loops;
+  StepMarks marks("part_fallback");
   uint32_t cells = 0;
   for (uint32_t l : label)
     if (l != UINT32_MAX) cells = std::max(cells, l + 1);
@@ -111,6 +113,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
   // span both) joins those parts in the output: neither can be cut out and
   // replaced alone, since the splice would leave the other part's faces
   // around the shared vertices in separate fans (a non-manifold vertex).
+  marks.mark("cells");
   auto part_of_cell = [&](uint32_t c) { return c < cells ? cell_part[c] : UINT32_MAX; };
   std::vector<std::vector<std::array<uint32_t, 3>>> out_faces(parts);
   std::vector<char> joined(parts, 0);
@@ -124,6 +127,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
     if (p != UINT32_MAX) out_faces[p].push_back({out->indices[3 * f], out->indices[3 * f + 1], out->indices[3 * f + 2]});
   }
 
+  marks.mark("faces");
   struct Replacement {
     uint32_t part;
     Mesh mesh;
@@ -196,6 +200,7 @@ Status replace_broken_parts(const Mesh& surface, const MeshEdges& edges, const S
     }
     replacements.push_back(std::move(r));
   }
+  marks.mark("shapes");
   if (replacements.empty()) return Status::Ok();
 
   // Splice: the output without the replaced parts' faces and vertices, then

@@ -742,6 +742,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
         "density", cpu,
         [&]() -> Status {
           if (!made) return Status::Ok();
+          StepMarks marks("density");
           RefinedSurface& refined = made->refined;
           std::vector<double>& area = made->area;
           std::vector<double>& mass = made->mass;
@@ -763,6 +764,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             }
           }
           const bool made_ahead = ahead.valid();
+          marks.mark("vertex_density");
           if (made_ahead) {
             VPR_ASSIGN_OR_RETURN(refined, ahead.get());
             VPR_RETURN_IF_ERROR(carry_values(channels, 2, &refined));
@@ -770,6 +772,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             VPR_ASSIGN_OR_RETURN(refined, refine_surface(input, channels, 2, refine_bounds(spacing_out, options),
                                                          refine_limit(input, options.target_vertices, options)));
           }
+          marks.mark("refined");
           // Over about two output spacings (elements are a quarter of one
           // apart); on the GPU when the job has one (the same bits).
           ScalarEdgeSmoothing smooth_twin;
@@ -782,6 +785,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           }
 #endif
           const bool smoothed_on_gpu = smooth_over_edges(refined.edges, 16, 2, 1, &refined.value, smooth_twin);
+          marks.mark("smooth");
           // A soup: most edges have one face even after welding.
           const size_t entries = refined.edges.neighbor.size();  // each edge twice
           const size_t single = size_t(std::count(refined.edges.faces.begin(), refined.edges.faces.end(), 1u)) / 2;
@@ -793,6 +797,7 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
             const double dv = refined.value[2 * v + 1];
             mass[v] = area[v] * dv * dv;  // rho = D^2: point density follows D
           }
+          marks.mark("areas_mass");
           const std::string& rows = refined.edges_twin;
           note = std::string(density_mode_name(options.density)) + " density; " +
                  std::to_string(refined.mesh.vertex_count()) + " surface elements" +

@@ -346,6 +346,7 @@ Status anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, const std::ve
   std::vector<Vec3d>& y = *offsets;
   y.assign(nv, Vec3d{0, 0, 0});
   if (!(anisotropy > 0)) return Status::Ok();
+  StepMarks marks("cvt_offsets");
   const double per_cell = double(nv) / std::max<uint32_t>(count, 1);
   const int passes = int(std::clamp(std::lround(per_cell / 2), 1L, 64L));
   // The taper's ramp adds anisotropy / taper to every hop's length in R^6;
@@ -369,6 +370,7 @@ Status anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, const std::ve
   const double mean_edge = edge_count ? edge_sum / double(edge_count) : 0.0;
   const double slope_hops = mean_edge > 0 ? std::ceil(anisotropy / (kMaxTaperSlope * mean_edge)) : 1.0;
   const int taper = int(std::clamp(std::max(std::lround(2 * std::sqrt(per_cell)), long(std::min(slope_hops, 1e6))), 1L, 256L));
+  marks.mark("edge_lengths");
   if (cache && cache->passes == passes && cache->taper == taper && cache->anisotropy == anisotropy &&
       cache->offsets.size() == nv) {
     y = cache->offsets;
@@ -425,7 +427,9 @@ Status anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, const std::ve
   if (smooth) {
     std::future<void> walked = std::async(std::launch::async, walk);
     const Status smoothed = smooth(adj, passes, &now);
+    marks.mark("smooth");
     walked.get();
+    marks.mark("walk_wait");
     VPR_RETURN_IF_ERROR(smoothed);
   } else {
     VPR_RETURN_IF_ERROR(cpu::smooth_over_edges(adj, passes, &now));
@@ -437,6 +441,7 @@ Status anisotropic_offsets(const Mesh& mesh, const Adjacency& adj, const std::ve
       if (len > 0) y[v] = now[v] * (anisotropy * double(hops[v].load(std::memory_order_relaxed)) / (double(taper) * len));
     }
   });
+  marks.mark("place");
   if (cache) {
     cache->passes = passes;
     cache->taper = taper;
@@ -599,10 +604,12 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
   std::vector<std::vector<uint32_t>> loops;
   uint32_t start_cells = 0;
   auto plan = [&]() -> Status {
+    StepMarks plan_marks("cvt_plan");
     // Connected parts (elements with mass only; isolated vertices have none),
     // numbered by lowest element (edge_parts.h); each part's mass summed in
     // element order.
     found = edge_parts(adj);
+    plan_marks.mark("parts");
     const std::vector<uint32_t>& part = found.part;
     const std::vector<std::vector<uint32_t>>& part_elements = found.elements;
     std::vector<double> part_mass(part_elements.size(), 0.0);
@@ -689,7 +696,9 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
 
     // Boundary loops: each gets min_per_loop seeds spread along it (so the
     // dual keeps it open), taken from its part's quota.
+    plan_marks.mark("quotas");
     boundary_loops(adj, &loop_of, &loops);
+    plan_marks.mark("loops");
     // A warm start (CvtOptions::start_label) takes the earlier run's cells as
     // they are; otherwise seeds, and cells grown from them.
     if (options.start_label) {
@@ -751,6 +760,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
         }
       }
     }
+    plan_marks.mark("seeds");
     return Status::Ok();
   };
   marks.mark("normals_parts_seeds");
