@@ -480,6 +480,28 @@ TEST(SurfaceRefineTest, WeldsDuplicatesAndSmoothsTheSameOnAnyThreadCount) {
   }
 }
 
+// The areas from the corners by vertex are the face-order sums, bit for bit:
+// on a torus with an unused vertex and a face that holds one vertex twice.
+TEST(SurfaceCvtTest, VertexAreasFromCornersAreTheSameSums) {
+  Mesh mesh = torus(1.0, 0.3, 40, 24);
+  const uint32_t unused = uint32_t(mesh.vertex_count());
+  mesh.positions.insert(mesh.positions.end(), {5.0f, 5.0f, 5.0f});
+  mesh.indices.insert(mesh.indices.end(), {3, 3, 7});  // a degenerate face: vertex 3 twice, no area
+  mesh.indices.insert(mesh.indices.end(), {3, 11, 90});
+  const std::vector<double> plain = vertex_areas(mesh);
+  const VertexCorners corners = vertex_corners(mesh.indices, mesh.vertex_count());
+  ASSERT_TRUE(corners.built(mesh.vertex_count()));
+  const std::vector<double> from_corners = vertex_areas(mesh, &corners);
+  ASSERT_EQ(from_corners.size(), plain.size());
+  EXPECT_EQ(std::memcmp(from_corners.data(), plain.data(), plain.size() * sizeof(double)), 0);
+  EXPECT_EQ(plain[unused], 0.0);
+  EXPECT_GT(plain[90], 0.0);
+  // Corners of another mesh are not used: the plain sums.
+  const VertexCorners other = vertex_corners({0, 1, 2}, 3);
+  const std::vector<double> ignored = vertex_areas(mesh, &other);
+  EXPECT_EQ(std::memcmp(ignored.data(), plain.data(), plain.size() * sizeof(double)), 0);
+}
+
 TEST(SurfaceCvtTest, EnergyFallsEverySweepAndStopsOnItsTolerance) {
   CvtStats stats;
   const Mesh out = remesh(box(1, 0.7, 0.4, 12), 400, DensityMode::kUniform, &stats);

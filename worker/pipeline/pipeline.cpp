@@ -2,6 +2,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 #include <tbb/task_group.h>
@@ -788,15 +789,24 @@ Status run_back_half(FrontHalf& front, const PipelineOptions& options, int level
           marks.mark("smooth");
           // A soup: most edges have one face even after welding.
           const size_t entries = refined.edges.neighbor.size();  // each edge twice
-          const size_t single = size_t(std::count(refined.edges.faces.begin(), refined.edges.faces.end(), 1u)) / 2;
+          const std::vector<uint32_t>& uses = refined.edges.faces;
+          const size_t single = tbb::parallel_reduce(
+                                    tbb::blocked_range<size_t>(0, uses.size(), 65536), size_t(0),
+                                    [&](const tbb::blocked_range<size_t>& r, size_t n) {
+                                      return n + size_t(std::count(uses.begin() + r.begin(), uses.begin() + r.end(), 1u));
+                                    },
+                                    std::plus<size_t>()) /
+                                2;
           const size_t distinct = entries / 2;
           soup = distinct == 0 || single * 4 > distinct;
-          area = vertex_areas(refined.mesh);
+          area = vertex_areas(refined.mesh, &refined.corners);
           mass.resize(area.size());
-          for (size_t v = 0; v < area.size(); ++v) {
-            const double dv = refined.value[2 * v + 1];
-            mass[v] = area[v] * dv * dv;  // rho = D^2: point density follows D
-          }
+          tbb::parallel_for(tbb::blocked_range<size_t>(0, area.size(), 8192), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t v = r.begin(); v != r.end(); ++v) {
+              const double dv = refined.value[2 * v + 1];
+              mass[v] = area[v] * dv * dv;  // rho = D^2: point density follows D
+            }
+          });
           marks.mark("areas_mass");
           const std::string& rows = refined.edges_twin;
           note = std::string(density_mode_name(options.density)) + " density; " +

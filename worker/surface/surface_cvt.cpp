@@ -515,16 +515,31 @@ SlabSchedule slab_schedule(const std::vector<Vec3d>& x, const Adjacency& adj, co
 
 }  // namespace
 
-std::vector<double> vertex_areas(const Mesh& mesh) {
+std::vector<double> vertex_areas(const Mesh& mesh, const VertexCorners* corners) {
   std::vector<double> area(mesh.vertex_count(), 0.0);
+  auto third_of = [&](const uint32_t* t) {
+    const Vec3d a = load3d(mesh.positions.data(), t[0]), b = load3d(mesh.positions.data(), t[1]),
+                c = load3d(mesh.positions.data(), t[2]);
+    return norm(cross(b - a, c - a)) / 6.0;
+  };
+  if (corners && corners->built(mesh.vertex_count())) {
+    // A vertex's corners ascend (face order; a face holding it twice gives
+    // two corners in a row), as the ranges below meet them.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.vertex_count(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t v = r.begin(); v != r.end(); ++v)
+        for (uint32_t i = corners->offset[v]; i < corners->offset[v + 1]; ++i) {
+          const uint32_t h = corners->corner[i];
+          area[v] += third_of(&mesh.indices[h - h % 3]);
+        }
+    });
+    return area;
+  }
   in_vertex_ranges(mesh.vertex_count(), [&](uint32_t lo, uint32_t hi) {  // each vertex's faces in face order
     for (size_t f = 0; f < mesh.face_count(); ++f) {
       const uint32_t* t = &mesh.indices[3 * f];
       const bool mine[3] = {t[0] >= lo && t[0] < hi, t[1] >= lo && t[1] < hi, t[2] >= lo && t[2] < hi};
       if (!mine[0] && !mine[1] && !mine[2]) continue;
-      const Vec3d a = load3d(mesh.positions.data(), t[0]), b = load3d(mesh.positions.data(), t[1]),
-                  c = load3d(mesh.positions.data(), t[2]);
-      const double third = norm(cross(b - a, c - a)) / 6.0;
+      const double third = third_of(t);
       for (int k = 0; k < 3; ++k)
         if (mine[k]) area[t[k]] += third;
     }

@@ -147,7 +147,10 @@ Status surface_cvt(const Mesh& mesh, const std::vector<double>& mass, uint32_t c
 Status surface_cvt(const Mesh& mesh, const MeshEdges& edges, const std::vector<double>& mass, uint32_t count,
                    const CvtOptions& options, std::vector<uint32_t>* label, CvtStats* stats);
 
-// A third of each incident face's area, per vertex.
-std::vector<double> vertex_areas(const Mesh& mesh);
+// A third of each incident face's area, per vertex, summed in face order.
+// corners: the mesh's corners by vertex where built (each vertex reads its
+// own faces only, where without them every thread reads every face); the
+// same sums either way.
+std::vector<double> vertex_areas(const Mesh& mesh, const VertexCorners* corners = nullptr);
 
 }  // namespace vpr
