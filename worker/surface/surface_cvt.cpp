@@ -755,8 +755,16 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
       for (size_t p = 0; p < parts; ++p) {
         if (quota[p] == 0) continue;
         const std::vector<uint32_t> order = morton_order(x, part_elements[p], lo, extent);
+        // The weights along the curve gathered in parallel first: the two
+        // walks below then read them in a row, where reading mass[order[i]]
+        // missed the cache at every element (igea 1M at 20,000 on an H100
+        // host: 13 ms of seeds, the longer side of the offsets beside).
+        std::vector<double> along(order.size());
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, order.size(), 8192), [&](const tbb::blocked_range<size_t>& r) {
+          for (size_t i = r.begin(); i != r.end(); ++i) along[i] = weight(order[i]);
+        });
         double total = 0;
-        for (uint32_t v : order) total += weight(v);
+        for (const double w : along) total += w;
         const Philox4 r = random4(options.seed, p, 0);
         const double offset = (double(r.v[0]) + double(r.v[1]) / 4294967296.0) / 4294967296.0;  // [0, 1)
         const double step = total / quota[p];
@@ -764,7 +772,7 @@ Status surface_cvt(const Mesh& mesh, const MeshEdges& adj, const std::vector<dou
         size_t i = 0;
         for (uint32_t k = 0; k < quota[p]; ++k) {
           const double u = (offset + k) * step;
-          while (i + 1 < order.size() && below + weight(order[i]) <= u) below += weight(order[i++]);
+          while (i + 1 < order.size() && below + along[i] <= u) below += along[i++];
           // A taken element (a loop's seed, or a heavy element that holds
           // several steps): the next free one along the curve (always exists:
           // quota <= size).
