@@ -4,7 +4,6 @@
 // and on a surface with an opening; a tiny device budget is RESOURCE_EXHAUSTED
 // with nothing left charged. The anisotropic offsets' smoothing passes
 // (edge_smoothing.cu) and the cells' growth (cell_growth.cu) the same way. Skipped where there is no CUDA device.
-#include <cuda_runtime.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -28,10 +27,8 @@ namespace {
 class CvtSweepsGpu : public CudaTest {
  protected:
   // surface_cvt with the GPU's rounds, each call checked against the CPU
-  // reference on the same input; returns the calls compared. ctx: the
-  // test's stream (a sweep captured once as a graph) unless given.
-  int run_and_compare(const Mesh& mesh, uint32_t count, double anisotropy, CvtStats* stats,
-                      const ExecContext* ctx = nullptr) {
+  // reference on the same input; returns the calls compared.
+  int run_and_compare(const Mesh& mesh, uint32_t count, double anisotropy, CvtStats* stats) {
     const MeshEdges edges = mesh_edges(mesh);
     const std::vector<double> mass = vertex_areas(mesh);
     CvtOptions options;
@@ -42,7 +39,7 @@ class CvtSweepsGpu : public CudaTest {
       std::vector<uint32_t> reference = *label;
       CvtSweepOutput reference_out;
       EXPECT_TRUE(cpu::cvt_colour_sweeps(in, &reference, &reference_out).ok());
-      const Status s = cuda::cvt_colour_sweeps(in, label, out, ctx ? *ctx : gpu_);
+      const Status s = cuda::cvt_colour_sweeps(in, label, out, gpu_);
       EXPECT_TRUE(s.ok()) << s.to_string();
       EXPECT_EQ(*label, reference) << "call " << calls;
       EXPECT_EQ(out->energy, reference_out.energy) << "call " << calls;
@@ -63,18 +60,6 @@ TEST_F(CvtSweepsGpu, SameLabelsAsTheCpuReferenceOnAScan) {
   EXPECT_GE(run_and_compare(*bunny, 2000, 0.004, &stats), 1);
   EXPECT_GT(stats.device_sweeps, 2u);
   EXPECT_EQ(stats.clusters, 2000u);
-}
-
-// On the legacy default stream a sweep cannot be captured: its launches go
-// one by one, with the same labels.
-TEST_F(CvtSweepsGpu, SameLabelsOnTheDefaultStreamWithoutAGraph) {
-  auto bunny = read_mesh("../shared/models/bunny.obj");
-  ASSERT_TRUE(bunny.ok()) << bunny.status().to_string();
-  const ExecContext legacy{Device::kCuda, nullptr, nullptr};
-  CvtStats stats;
-  EXPECT_GE(run_and_compare(*bunny, 1500, 0.004, &stats, &legacy), 1);
-  EXPECT_GT(stats.device_sweeps, 2u);
-  EXPECT_EQ(cudaGetLastError(), cudaSuccess);  // the refused capture left no error behind
 }
 
 TEST_F(CvtSweepsGpu, SameLabelsAsTheCpuReferenceWithAnOpening) {

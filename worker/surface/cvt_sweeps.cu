@@ -7,7 +7,6 @@
 #include <string>
 #include <vector>
 
-#include "core/step_marks.h"
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
 #include "surface/cvt_sweep_kernels.h"
@@ -58,15 +57,11 @@ __global__ void initial_sums_kernel(Elements e, CvtFixedScale scale, const uint3
 
 // The elements of one colour, listed (by_colour): thread i decides list[i]'s
 // move into move[i], and the next kernel applies it.
-// The threshold, 1e-18 |E| of the sweep before (the host reference's, the
-// same product), is read from the device so that one captured sweep serves
-// every sweep.
 __global__ void decide_kernel(Elements e, CvtFixedScale scale, const uint32_t* list, uint32_t count,
                               const uint32_t* label, const unsigned long long* sums, const uint32_t* size,
-                              const double* previous_energy, uint32_t* move) {
+                              double threshold, uint32_t* move) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
-  const double threshold = 1e-18 * fabs(*previous_energy);
   const uint32_t v = list[i];
   move[i] = kNoCell;
   if (!cvt_on_cell_edge(e.offset, e.neighbor, label, v)) return;  // no cell to move to: most elements
@@ -121,34 +116,6 @@ __global__ void energy_kernel(const unsigned long long* sums, uint32_t cells, Cv
   if (t == 0) *energy = constant + lane[0];
 }
 
-// A sweep captured once and launched as a graph; exec stays null where the
-// capture failed (then the sweeps are launched one by one). Thread-local
-// capture: the other jobs' threads go on using the device meanwhile.
-struct SweepGraph {
-  cudaGraph_t graph = nullptr;
-  cudaGraphExec_t exec = nullptr;
-  SweepGraph() = default;
-  SweepGraph(const SweepGraph&) = delete;
-  SweepGraph& operator=(const SweepGraph&) = delete;
-  ~SweepGraph() {
-    if (exec) cudaGraphExecDestroy(exec);
-    if (graph) cudaGraphDestroy(graph);
-  }
-  template <typename Enqueue>
-  void capture(cudaStream_t stream, Enqueue enqueue) {
-    if (cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal) != cudaSuccess) {
-      cudaGetLastError();  // not sticky: cleared, so later checks do not see it
-      return;
-    }
-    const Status enqueued = enqueue();
-    const cudaError_t ended = cudaStreamEndCapture(stream, &graph);
-    if (!enqueued.ok() || ended != cudaSuccess || cudaGraphInstantiate(&exec, graph, 0) != cudaSuccess) {
-      exec = nullptr;
-      cudaGetLastError();
-    }
-  }
-};
-
 }  // namespace
 
 Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_io, CvtSweepOutput* out,
@@ -161,7 +128,6 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
   std::vector<uint32_t>& label = *label_io;
   const CvtFixedScale scale = cvt_fixed_scale(in, label);
   const cudaStream_t stream = stream_of(ctx);
-  StepMarks marks("cvt_rounds");
 
   DeviceBuffer<uint32_t> d_offset, d_neighbor, d_faces, d_label, d_round, d_move, d_size, d_counters;
   DeviceBuffer<Vec3d> d_x, d_y, d_normal;
@@ -181,7 +147,6 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
                           .add(&d_label, label.data(), nv)
                           .run());
   if (in.uploaded) in.uploaded();
-  marks.mark("upload");
   VPR_RETURN_IF_ERROR(d_round.allocate(nv, ctx));
   VPR_RETURN_IF_ERROR(d_move.allocate(nv, ctx));
   VPR_RETURN_IF_ERROR(d_colour.allocate(nv, ctx));
@@ -211,7 +176,6 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
   }
   const uint32_t colours = counters[1];
   out->colours = colours;
-  marks.mark("colours");
 
   // The elements listed by colour (a stable radix sort of the colours, so
   // each colour's list is ascending), so that a round launches over its own
@@ -238,62 +202,41 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
   VPR_CUDA_TRY(cudaStreamSynchronize(stream));
   std::vector<uint32_t> colour_start(colours + 1, 0);  // colours < 64 come first, in order
   for (uint32_t k = 0; k < colours; ++k) colour_start[k + 1] = colour_start[k] + colour_count[k];
-  marks.mark("lists");
 
   initial_sums_kernel<<<blocks, kBlock, 0, stream>>>(e, scale, d_label.get(), d_sums.get(), d_size.get());
   VPR_CUDA_LAUNCHED("initial_sums_kernel");
-  // E before the first sweep into d_previous; each sweep reads it for its
-  // threshold, writes its own E to d_energy and copies that over.
-  DeviceBuffer<double> d_previous;
-  VPR_RETURN_IF_ERROR(d_previous.allocate(1, ctx));
-  energy_kernel<<<1, kCvtEnergyLanes, 0, stream>>>(d_sums.get(), in.cells, scale, in.constant, d_previous.get());
-  VPR_CUDA_LAUNCHED("energy_kernel");
+  auto energy = [&](double* value) -> Status {
+    energy_kernel<<<1, kCvtEnergyLanes, 0, stream>>>(d_sums.get(), in.cells, scale, in.constant, d_energy.get());
+    VPR_CUDA_LAUNCHED("energy_kernel");
+    return d_energy.download(value, 1);
+  };
   double previous = 0;
-  VPR_RETURN_IF_ERROR(d_previous.download(&previous, 1));
+  VPR_RETURN_IF_ERROR(energy(&previous));
   VPR_CUDA_TRY(cudaStreamSynchronize(stream));
-  marks.mark("start_sums");
-  // One sweep's work: every colour's decide and apply, then E. A sweep is
-  // some 16 launches of a few microseconds each, so it is captured once as a
-  // CUDA graph and launched as one (igea at 10,000: 33 sweeps, 9.6 ms as
-  // launches on an H100); where capture fails (the legacy default stream) the
-  // launches go one by one. The same kernels in the same order: the same bits.
-  auto enqueue_sweep = [&]() -> Status {
-    VPR_CUDA_TRY(cudaMemsetAsync(d_moved.get(), 0, sizeof(unsigned long long), stream));
+  for (int sweep = 0; sweep < in.max_sweeps; ++sweep) {
+    const double threshold = 1e-18 * std::abs(previous);
+    VPR_RETURN_IF_ERROR(d_moved.zero());
     for (uint32_t k = 0; k < colours; ++k) {
       const uint32_t* list = d_by_colour.get() + colour_start[k];
       const uint32_t count = colour_count[k];
       if (count == 0) continue;
       decide_kernel<<<blocks_for(count), kBlock, 0, stream>>>(e, scale, list, count, d_label.get(), d_sums.get(),
-                                                              d_size.get(), d_previous.get(), d_move.get());
+                                                              d_size.get(), threshold, d_move.get());
       VPR_CUDA_LAUNCHED("decide_kernel");
       apply_kernel<<<blocks_for(count), kBlock, 0, stream>>>(e, scale, list, count, d_move.get(), d_label.get(),
                                                              d_sums.get(), d_size.get(), d_moved.get());
       VPR_CUDA_LAUNCHED("apply_kernel");
     }
-    energy_kernel<<<1, kCvtEnergyLanes, 0, stream>>>(d_sums.get(), in.cells, scale, in.constant, d_energy.get());
-    VPR_CUDA_LAUNCHED("energy_kernel");
-    VPR_CUDA_TRY(cudaMemcpyAsync(d_previous.get(), d_energy.get(), sizeof(double), cudaMemcpyDeviceToDevice, stream));
-    return Status::Ok();
-  };
-  SweepGraph graph;
-  if (stream != nullptr) graph.capture(stream, enqueue_sweep);
-  for (int sweep = 0; sweep < in.max_sweeps; ++sweep) {
-    if (graph.exec)
-      VPR_CUDA_TRY(cudaGraphLaunch(graph.exec, stream));
-    else
-      VPR_RETURN_IF_ERROR(enqueue_sweep());
     double now = 0;
     unsigned long long moved = 0;
-    VPR_RETURN_IF_ERROR(d_energy.download(&now, 1));
+    VPR_RETURN_IF_ERROR(energy(&now));
     VPR_RETURN_IF_ERROR(d_moved.download(&moved, 1));
     VPR_CUDA_TRY(cudaStreamSynchronize(stream));
     if (cvt_sweeps_stop(previous, now, size_t(moved), in.tolerance, out)) break;
     previous = now;
   }
-  marks.mark("sweeps");
   VPR_RETURN_IF_ERROR(d_label.download(label.data(), nv));
   VPR_CUDA_TRY(cudaStreamSynchronize(stream));
-  marks.mark("download");
   return Status::Ok();
 }
 
