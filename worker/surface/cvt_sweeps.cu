@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "core/step_marks.h"
 #include "gpu/cuda_check.h"
 #include "gpu/device_buffer.h"
 #include "surface/cvt_sweep_kernels.h"
@@ -128,6 +129,7 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
   std::vector<uint32_t>& label = *label_io;
   const CvtFixedScale scale = cvt_fixed_scale(in, label);
   const cudaStream_t stream = stream_of(ctx);
+  StepMarks marks("cvt_rounds");
 
   DeviceBuffer<uint32_t> d_offset, d_neighbor, d_faces, d_label, d_round, d_move, d_size, d_counters;
   DeviceBuffer<Vec3d> d_x, d_y, d_normal;
@@ -147,6 +149,7 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
                           .add(&d_label, label.data(), nv)
                           .run());
   if (in.uploaded) in.uploaded();
+  marks.mark("upload");
   VPR_RETURN_IF_ERROR(d_round.allocate(nv, ctx));
   VPR_RETURN_IF_ERROR(d_move.allocate(nv, ctx));
   VPR_RETURN_IF_ERROR(d_colour.allocate(nv, ctx));
@@ -176,6 +179,7 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
   }
   const uint32_t colours = counters[1];
   out->colours = colours;
+  marks.mark("colours");
 
   // The elements listed by colour (a stable radix sort of the colours, so
   // each colour's list is ascending), so that a round launches over its own
@@ -213,6 +217,7 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
   double previous = 0;
   VPR_RETURN_IF_ERROR(energy(&previous));
   VPR_CUDA_TRY(cudaStreamSynchronize(stream));
+  marks.mark("lists_sums");
   for (int sweep = 0; sweep < in.max_sweeps; ++sweep) {
     const double threshold = 1e-18 * std::abs(previous);
     VPR_RETURN_IF_ERROR(d_moved.zero());
@@ -235,8 +240,10 @@ Status cvt_colour_sweeps(const CvtSweepInput& in, std::vector<uint32_t>* label_i
     if (cvt_sweeps_stop(previous, now, size_t(moved), in.tolerance, out)) break;
     previous = now;
   }
+  marks.mark("sweeps");
   VPR_RETURN_IF_ERROR(d_label.download(label.data(), nv));
   VPR_CUDA_TRY(cudaStreamSynchronize(stream));
+  marks.mark("download");
   return Status::Ok();
 }
 
